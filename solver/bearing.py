@@ -1,0 +1,435 @@
+"""The finite-element film of one journal bearing: kinematics in, forces, friction and flow out (SI).
+
+``FilmModel`` owns the film mesh, the UFL forms (solver.film) and the SNES VI (solver.cavitation).
+It is built once per bearing and reused across solves: a change of kinematics only updates
+``fem.Constant``s, reassembles the operator and the source, and warm-starts the VI from the last
+pressure. After a solve, ``jacobian()`` gives the exact derivatives of the film forces and torques
+with respect to the eccentricity and its rate (active set frozen), from back-substitutions with one
+factorisation.
+
+Conventions (DESIGN 3.1): everything is expressed in the bushing frame. The eccentricity
+``e' = (e'_x, e'_y)`` is the journal centre minus the bushing centre; ``ecc_rate`` is the time
+derivative of those bushing-frame components (it includes the frame's rotation, see
+``Kinematics.from_global``). Surface speeds relative to the bushing: bushing 0, journal
+``R (omega_journal - omega_bushing)``. The film force on the journal is ``-integral(p n dA)`` with n
+the outward normal of the journal; the bushing carries the opposite force. Friction torques are
+positive counter-clockwise (the direction of increasing theta), about each body's own centre.
+
+Oil inlet (``Bearing.inlet``). ``"max-gap"``: the film is at ambient pressure along the axial line
+of maximum film thickness, where the oil is taken to enter (the assumption of the classic
+finite-bearing tables of Butenschoen 1976 and Raimondi & Boyd 1958); cavitation elsewhere is the VI.
+It is implemented exactly by solving in a frame turned so that the maximum gap lies on the mesh
+seam (theta = 0), where the mesh has nodes, and turning the results back; the Jacobian then
+includes the motion of that line with the eccentricity direction. ``"none"``: only the edges (and a
+supply hole) are at ambient pressure and the VI alone places the film's start and end; on a full
+360 deg bearing this gives attitude angles 1-4 deg larger than the tables at eccentricity <= 0.6
+for the same load.
+
+Equilibrium under a load (``equilibrium``) is found by Newton's method on the two eccentricity
+components with the film's Jacobian.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+
+from solver import film
+from solver.cavitation import CavitatingSolver
+from solver.errors import InputError, out_of_range
+from solver.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
+from solver.scaling import FilmScales
+
+log = logging.getLogger(__name__)
+
+INLETS = ("max-gap", "none")
+DEFAULT_MESH_SIZE = 0.05  # element size / R: ~6000 nodes for B/D = 1 (DESIGN 6: ~5000 nodes for 1 %)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Bearing:
+    """Geometry and oil of a plain journal bearing (SI).
+
+    Pressures are gauge pressures relative to the ambient pressure at the bearing edges.
+    """
+
+    radius: float  # m, nominal radius R
+    width: float  # m, bearing width B
+    clearance: float  # m, radial clearance c
+    viscosity: float  # Pa s, dynamic viscosity mu
+    cavitation_pressure: float = 0.0  # Pa gauge, p_cav (<= 0)
+    supply_pressure: float = 0.0  # Pa gauge, pressure in the supply hole (if any)
+    supply_hole_angle: float | None = None  # rad, bushing angle of an oil hole (None: no hole)
+    supply_hole_diameter: float = 0.0  # m
+    inlet: str = "max-gap"  # "max-gap": ambient pressure along the line of maximum film thickness; "none"
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "width", "clearance", "viscosity"):
+            if not getattr(self, name) > 0:
+                raise out_of_range(name, getattr(self, name), "> 0")
+        if not self.clearance < 0.1 * self.radius:
+            raise out_of_range("clearance", self.clearance, f"< 0.1 radius = {0.1 * self.radius:g} m (thin film)")
+        if not self.cavitation_pressure <= 0:
+            raise out_of_range("cavitation_pressure", self.cavitation_pressure, "<= 0 Pa gauge")
+        if self.supply_hole_angle is not None and not 0 < self.supply_hole_diameter < min(self.width, self.radius):
+            raise out_of_range("supply_hole_diameter", self.supply_hole_diameter, "(0, min(width, radius))")
+        if self.inlet not in INLETS:
+            raise out_of_range("inlet", repr(self.inlet), " or ".join(map(repr, INLETS)))
+        if self.inlet == "max-gap" and self.supply_hole_angle is not None:
+            raise InputError("inlet = 'max-gap' cannot be combined with a supply hole (allowed with a hole: 'none')")
+
+
+@dataclasses.dataclass(frozen=True)
+class Kinematics:
+    """Relative kinematics of journal and bushing in the bushing frame (SI)."""
+
+    ecc: tuple[float, float]  # m, journal centre - bushing centre, bushing frame
+    ecc_rate: tuple[float, float] = (0.0, 0.0)  # m/s, d/dt of the bushing-frame components
+    omega_journal: float = 0.0  # rad/s, absolute angular speed of the journal
+    omega_bushing: float = 0.0  # rad/s, absolute angular speed of the bushing
+
+    @staticmethod
+    def from_global(r_journal, v_journal, r_bushing, v_bushing, phi_bushing: float,
+                    omega_journal: float, omega_bushing: float) -> Kinematics:
+        """From global centre positions/velocities: ``e' = A^T e`` and ``de'/dt = A^T de/dt - omega_b S e'``."""
+        c, s = math.cos(phi_bushing), math.sin(phi_bushing)
+        A_T = np.array([[c, s], [-s, c]])
+        e_b = A_T @ (np.asarray(r_journal, float) - np.asarray(r_bushing, float))
+        rate = A_T @ (np.asarray(v_journal, float) - np.asarray(v_bushing, float)) - omega_bushing * np.array([-e_b[1], e_b[0]])
+        return Kinematics((float(e_b[0]), float(e_b[1])), (float(rate[0]), float(rate[1])), omega_journal, omega_bushing)
+
+
+@dataclasses.dataclass(frozen=True)
+class FilmResult:
+    """Results of one film solve (SI, bushing frame)."""
+
+    force: tuple[float, float]  # N, film force on the journal (the bushing carries the opposite)
+    p_max: float  # Pa gauge, peak film pressure
+    p_max_theta: float  # rad, bushing angle of the peak
+    p_max_z: float  # m, axial position of the peak (0 = mid-width)
+    h_min: float  # m, minimum film thickness
+    torque_journal: float  # N m, viscous friction torque on the journal about its centre (CCW +)
+    torque_bushing: float  # N m, viscous friction torque on the bushing about its centre (CCW +)
+    side_flow: float  # m^3/s, flow out of both edges (Poiseuille, positive outward)
+    iterations: int  # Newton (VI) iterations
+    solve_time: float  # s, wall time of the solve (assembly + VI)
+
+    @property
+    def load(self) -> float:
+        """|force| [N]: the load the film carries."""
+        return math.hypot(*self.force)
+
+
+@dataclasses.dataclass(frozen=True)
+class FilmJacobian:
+    """d(output)/d(input) at the last solution, active set frozen (SI).
+
+    Rows: force_x, force_y, torque_journal, torque_bushing. Columns: ecc_x, ecc_y (per m),
+    ecc_rate_x, ecc_rate_y (per m/s).
+    """
+
+    matrix: np.ndarray  # (4, 4)
+
+    @property
+    def force_ecc(self) -> np.ndarray:
+        return self.matrix[:2, :2]
+
+    @property
+    def force_rate(self) -> np.ndarray:
+        return self.matrix[:2, 2:]
+
+
+class FilmModel:
+    """Finite-element film of one bearing, reused across solves (see module docstring).
+
+    Args:
+        bearing: geometry and oil.
+        comm: communicator of the mesh and solver (never COMM_WORLD implicitly).
+        omega_ref: reference angular speed of the scaling [rad/s].
+        mesh_size: element size / R.
+        degree: polynomial degree of the pressure (1 or 2).
+        roughness: flow factors (solver.flow_factors); None: smooth surfaces.
+        options: PETSc options over solver.cavitation.DEFAULT_OPTIONS.
+    """
+
+    def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float = DEFAULT_MESH_SIZE,
+                 degree: int = 1, roughness: film.Roughness | None = None, sigma: float = 0.0,
+                 options: dict | None = None):
+        self.bearing = bearing
+        self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
+                                 omega_ref=omega_ref)
+        if degree not in (1, 2):
+            raise out_of_range("degree", degree, "1 or 2")
+        R = bearing.radius
+        hole = None
+        if bearing.supply_hole_angle is not None:
+            hole = SupplyHole(angle=bearing.supply_hole_angle, diameter=bearing.supply_hole_diameter / R)
+        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole)
+        self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
+        self.comm = self.mesh.comm
+        self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
+        self.P = fem.Function(self.V, name="pressure")
+        self.params = film.FilmParameters(self.mesh)
+        self.params.set(S=sigma / bearing.clearance if roughness is not None else 1.0)
+        self.geometry = film.FilmGeometry(self.mesh, self.params)
+        self.roughness = roughness
+        self._build_forms()
+        self.bcs = self._boundary_conditions()
+        self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
+                                       lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
+        self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
+        self._last: Kinematics | None = None
+
+    # -- setup ----------------------------------------------------------------------------------
+    def _build_forms(self) -> None:
+        g, P = self.geometry, self.P
+        v, dP = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        # The coefficients (H^3, sqrt in theta) would make UFL pick a very high quadrature degree;
+        # they are smooth on an element, so a fixed moderate degree is exact enough (verified
+        # against the tables) and ~50x cheaper.
+        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * self.V.ufl_element().degree() + 2})
+        residual = film.reynolds_integrand(P, v, g, self.roughness)
+        self._residual_expr = residual
+        self._a = fem.form(ufl.derivative(residual * dx, P, dP))
+        self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
+        tau_j, tau_b = film.shear_traction_integrands(P, g, self.roughness)
+        self._outputs = {  # dimensionless functionals, linear in P
+            "force_x": -P * g.normal[0], "force_y": -P * g.normal[1],
+            "torque_journal": tau_j, "torque_bushing": tau_b,
+        }
+        self._output_forms = {k: fem.form(e * dx) for k, e in self._outputs.items()}
+        variables = g.variables()
+        # Jacobian pieces: dr/dtheta at fixed P; explicit dJ/dtheta; dJ/dP as vectors.
+        self._dr_forms = [fem.form(ufl.diff(residual, var) * dx) for var in variables.values()]
+        self._dJ_explicit = {k: [fem.form(ufl.diff(e, var) * dx) for var in variables.values()]
+                             for k, e in self._outputs.items()}
+        self._dJ_dP = {k: fem.form(ufl.derivative(e * dx, P, v)) for k, e in self._outputs.items()}
+        # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
+        self._edge_indicator = fem.Function(self.V)
+        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        edge_dofs = fem.locate_dofs_topological(self.V, 1, edges)
+        self._edge_indicator.x.array[edge_dofs] = 1.0
+        self._side_flow_form = fem.form(ufl.replace(residual, {v: self._edge_indicator}) * dx)
+
+    def _boundary_conditions(self) -> list:
+        fdim = 1
+        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        ambient = fem.Function(self.V)
+        bcs = [fem.dirichletbc(ambient, fem.locate_dofs_topological(self.V, fdim, edges))]
+        if self.bearing.inlet == "max-gap":  # the seam, theta = 0 (solver.mesh), at ambient pressure
+            x = self.V.tabulate_dof_coordinates()
+            seam = np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32)
+            bcs.append(fem.dirichletbc(ambient, seam))
+        if self.bearing.supply_hole_angle is not None:
+            supply = fem.Function(self.V)
+            supply.x.array[:] = self.bearing.supply_pressure / self.scales.pressure
+            cells = self.cell_tags.find(TAGS["supply"])
+            bcs.append(fem.dirichletbc(supply, fem.locate_dofs_topological(self.V, 2, cells)))
+        return bcs
+
+    @property
+    def dofs(self) -> int:
+        """Global number of pressure unknowns."""
+        return self._dofs
+
+    # -- solve ----------------------------------------------------------------------------------
+    def set_kinematics(self, kin: Kinematics) -> None:
+        """Update the film's constants from SI kinematics (bushing frame)."""
+        s, c = self.scales, self.bearing.clearance
+        eps = np.asarray(kin.ecc, float) / c
+        if not math.hypot(*eps) < 1.0:
+            raise out_of_range("eccentricity ratio", f"{math.hypot(*eps):.6g}", "[0, 1)")
+        rate = np.asarray(kin.ecc_rate, float) / s.eccentricity_rate
+        U2 = self.bearing.radius * (kin.omega_journal - kin.omega_bushing) / s.speed  # journal, bushing frame
+        U1 = 0.0
+        self.params.set(eps_x=eps[0], eps_y=eps[1], deps_x=rate[0], deps_y=rate[1],
+                        U_mean=(U1 + U2) / 2, U_half_diff=(U1 - U2) / 2)
+
+    def _frame_angle(self, kin: Kinematics) -> float:
+        """Angle beta by which the solution frame is turned from the bushing frame.
+
+        With the max-gap inlet the maximum gap (opposite the eccentricity, or opposite the squeeze
+        velocity when concentric) is put on the seam at theta = 0; otherwise beta = 0.
+        """
+        if self.bearing.inlet != "max-gap":
+            return 0.0
+        e, rate = np.asarray(kin.ecc), np.asarray(kin.ecc_rate)
+        if np.linalg.norm(e) > 1e-9 * self.bearing.clearance:
+            return math.atan2(e[1], e[0]) + math.pi
+        if np.linalg.norm(rate) > 0:
+            return math.atan2(rate[1], rate[0]) + math.pi
+        return 0.0
+
+    def solve(self, kin: Kinematics) -> FilmResult:
+        """Solve the film for the given kinematics (warm start from the last pressure)."""
+        start = time.perf_counter()
+        beta = self._frame_angle(kin)
+        rot = _rotation(-beta)
+        solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
+        self.set_kinematics(solved)
+        self.solver.update()
+        iterations = self.solver.solve()
+        self._last, self._beta = kin, beta
+        values = self._functionals()
+        s = self.scales
+        p_max, theta, z = self._pressure_peak()
+        self._force_solved = np.array([values["force_x"], values["force_y"]])
+        force = _rotation(beta) @ self._force_solved * s.force
+        result = FilmResult(
+            force=(float(force[0]), float(force[1])),
+            p_max=p_max * s.pressure, p_max_theta=(theta + beta) % (2 * math.pi), p_max_z=z * self.bearing.radius,
+            h_min=self.bearing.clearance - math.hypot(*kin.ecc),
+            torque_journal=values["torque_journal"] * s.shear_torque,
+            torque_bushing=values["torque_bushing"] * s.shear_torque,
+            side_flow=-self._assemble(self._side_flow_form) * s.flow,
+            iterations=iterations, solve_time=time.perf_counter() - start)
+        return result
+
+    def _assemble(self, form) -> float:
+        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+    def _functionals(self) -> dict[str, float]:
+        return {k: self._assemble(f) for k, f in self._output_forms.items()}
+
+    def _pressure_peak(self) -> tuple[float, float, float]:
+        """(P_max, theta, Z) over the dofs, reduced over ranks."""
+        n_owned = self.V.dofmap.index_map.size_local
+        values = self.P.x.array[:n_owned]
+        coords = self.V.tabulate_dof_coordinates()[:n_owned]
+        if n_owned:
+            i = int(np.argmax(values))
+            local = (float(values[i]), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi), float(coords[i, 2]))
+        else:
+            local = (-math.inf, 0.0, 0.0)
+        return max(self.comm.allgather(local))
+
+    def jacobian(self) -> FilmJacobian:
+        """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y), SI."""
+        if self._last is None:
+            raise RuntimeError("jacobian() needs a solve() first")
+        dr = []
+        for form in self._dr_forms:
+            vec = fem_petsc.assemble_vector(form)
+            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            fem_petsc.set_bc(vec, self.bcs, scale=0.0)
+            dr.append(vec)
+        dP = self.solver.sensitivities(dr)
+        names = ("force_x", "force_y", "torque_journal", "torque_bushing")
+        dimless = np.zeros((4, 4))
+        for i, name in enumerate(names):
+            grad = fem_petsc.assemble_vector(self._dJ_dP[name])
+            grad.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            for j in range(4):
+                dimless[i, j] = self._assemble(self._dJ_explicit[name][j]) + grad.dot(dP[j])
+            grad.destroy()
+        for vec in dr + dP:
+            vec.destroy()
+        if self.bearing.inlet == "max-gap" and math.hypot(*self._last.ecc) > 1e-9 * self.bearing.clearance:
+            # In the solution frame the eccentricity is (-a, 0) and turning it (d eps'_y = -a dphi)
+            # turns the inlet line with it. Turning eps and its rate together is a symmetry
+            # (F -> S F dphi, M unchanged), so at fixed rate:
+            # dF/dphi = S F' - J'_rate S deps',  dM/dphi = -J'_M,rate S deps'.
+            a = math.hypot(*self._last.ecc) / self.bearing.clearance
+            S = np.array([[0.0, -1.0], [1.0, 0.0]])
+            rate = _rotation(-self._beta) @ np.asarray(self._last.ecc_rate) / self.scales.eccentricity_rate
+            d_dphi = -dimless[:, 2:] @ (S @ rate)
+            d_dphi[:2] += S @ self._force_solved
+            dimless[:, 1] = d_dphi / (-a)
+        rot, rot_back = _rotation(self._beta), _rotation(-self._beta)
+        dimless[:2, :2] = rot @ dimless[:2, :2] @ rot_back
+        dimless[:2, 2:] = rot @ dimless[:2, 2:] @ rot_back
+        dimless[2:, :2] = dimless[2:, :2] @ rot_back
+        dimless[2:, 2:] = dimless[2:, 2:] @ rot_back
+        s = self.scales
+        out_scale = np.array([s.force, s.force, s.shear_torque, s.shear_torque])[:, None]
+        in_scale = np.array([self.bearing.clearance] * 2 + [s.eccentricity_rate] * 2)[None, :]
+        return FilmJacobian(dimless * out_scale / in_scale)
+
+    # -- fields ---------------------------------------------------------------------------------
+    def fields_si(self) -> dict[str, fem.Function]:
+        """Pressure [Pa] and film thickness [m] as Functions on the film mesh (for output)."""
+        p = fem.Function(self.V, name="pressure_Pa")
+        p.x.array[:] = self.P.x.array * self.scales.pressure
+        h = fem.Function(self.V, name="film_thickness_m")
+        h.interpolate(fem.Expression(self.geometry.H * self.bearing.clearance, self.V.element.interpolation_points()))
+        return {"pressure": p, "film_thickness": h}
+
+    def close(self) -> None:
+        self.solver.close()
+
+    def __enter__(self) -> FilmModel:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+@dataclasses.dataclass(frozen=True)
+class Equilibrium:
+    """Static equilibrium of the journal under a load."""
+
+    kinematics: Kinematics
+    result: FilmResult
+    newton_iterations: int
+    force_residual: float  # N, |film force + load| at the solution
+
+
+def equilibrium(model: FilmModel, load: tuple[float, float], *, omega_journal: float, omega_bushing: float = 0.0,
+                tol: float = 1e-8, max_iterations: int = 40, guess: tuple[float, float] | None = None) -> Equilibrium:
+    """Find the eccentricity at which the film force balances the load on the journal.
+
+    Newton's method on (eps_x, eps_y) with the film's exact Jacobian, with step halving that keeps
+    |eps| < 0.995 and reduces the force residual.
+
+    Args:
+        load: external load on the journal, bushing frame [N].
+        tol: relative tolerance on the force residual, |F + W| <= tol |W|.
+    """
+    W = np.asarray(load, float)
+    W_norm = float(np.linalg.norm(W))
+    if not W_norm > 0:
+        raise out_of_range("load", W_norm, "> 0 N")
+    c = model.bearing.clearance
+    if guess is None:  # 50 deg ahead of the load line (in the direction of rotation), eps = 0.5
+        angle = math.atan2(W[1], W[0]) + math.copysign(math.radians(50), omega_journal - omega_bushing or 1.0)
+        guess = (0.5 * c * math.cos(angle), 0.5 * c * math.sin(angle))
+    e = np.asarray(guess, float)
+
+    def residual(e_vec):
+        kin = Kinematics((float(e_vec[0]), float(e_vec[1])), (0.0, 0.0), omega_journal, omega_bushing)
+        res = model.solve(kin)
+        return kin, res, np.asarray(res.force) + W
+
+    kin, res, r = residual(e)
+    for iteration in range(1, max_iterations + 1):
+        if np.linalg.norm(r) <= tol * W_norm:
+            return Equilibrium(kin, res, iteration - 1, float(np.linalg.norm(r)))
+        J = model.jacobian().force_ecc
+        step = -np.linalg.solve(J, r)
+        lam = 1.0
+        while True:
+            trial = e + lam * step
+            if np.linalg.norm(trial) / c < 0.995:
+                kin_t, res_t, r_t = residual(trial)
+                if np.linalg.norm(r_t) < np.linalg.norm(r) or lam < 1e-3:
+                    break
+            lam *= 0.5
+            if lam < 1e-4:
+                raise InputError(f"load = {W_norm:g} N cannot be carried by the film (eccentricity ratio reaches 0.995)")
+        e, kin, res, r = trial, kin_t, res_t, r_t
+    raise InputError(f"load = {W_norm:g} N: no equilibrium found in {max_iterations} Newton iterations")

@@ -1,0 +1,213 @@
+"""Cavitation as a variational inequality: PETSc SNES VI for ``P >= P_cav`` (PETSc plumbing only).
+
+The film problem is linear in P for given kinematics: the residual is ``r(P) = A P + l`` with the
+Reynolds operator A and the source vector l (Couette, shear flow and squeeze terms). The Reynolds
+(Swift-Stieber) cavitation condition makes it the complementarity problem (DESIGN 3.2)::
+
+    P >= P_cav,   r(P) >= 0,   (P - P_cav) r(P) = 0
+
+solved with PETSc's reduced-space active-set Newton method ``vinewtonrsls`` (basic line search: the
+default line search stalls on this problem) and an LU factorisation of the reduced system. Because
+the problem is linear, A and l are assembled once per change of kinematics (``update``), the SNES
+callbacks only do ``A P + l``, and each solve starts from the previous pressure (warm start).
+
+After a solve, the inactive (pressurised) set is known; with it frozen the problem is linear, so
+the sensitivity of P to a parameter theta solves ``A_II dP_I = -(dr/dtheta)_I`` with ``dP = 0`` on
+the active (cavitated) set and on Dirichlet dofs: the film's exact Jacobian for a few
+back-substitutions (DESIGN 3.8).
+
+What the caller provides: the compiled bilinear form ``a`` (the operator), the compiled linear form
+``l`` (the source; ``r = a(P, v) + l(v)``), the pressure Function, the Dirichlet conditions and the
+lower bound P_cav. Use the solver as a context manager: PETSc destructors are collective.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+
+from petsc4py import PETSc
+
+import numpy as np
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+
+from solver.errors import FilmNotConverged
+
+log = logging.getLogger(__name__)
+
+DEFAULT_OPTIONS: dict[str, str | float | int] = {
+    "snes_type": "vinewtonrsls",
+    "snes_linesearch_type": "basic",  # the default (bt) line search stalls on the VI
+    "snes_rtol": 1e-10,
+    "snes_atol": 1e-10,
+    "snes_stol": 0.0,
+    "snes_max_it": 50,
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+}
+
+_instance_counter = itertools.count()
+
+
+def _lu_package(comm) -> str:
+    """MUMPS in parallel; PETSc's own LU in serial (faster for these small 2D problems)."""
+    if comm.size > 1:
+        return "mumps"
+    return "petsc"
+
+
+class CavitatingSolver:
+    """SNES VI for ``A P + l = 0`` with ``P >= P_cav`` (see the module docstring).
+
+    Args:
+        a: compiled bilinear form of the operator A.
+        l: compiled linear form of the source l.
+        P: the pressure Function (solution and warm start).
+        bcs: Dirichlet conditions (ambient edges, supply holes).
+        lower: the cavitation pressure P_cav (dimensionless).
+        options: PETSc options merged over ``DEFAULT_OPTIONS``.
+    """
+
+    def __init__(self, a: fem.FormMetaClass, l: fem.FormMetaClass, P: fem.Function, bcs: list,
+                 lower: float, options: dict | None = None):
+        self.a, self.l, self.P, self.bcs = a, l, P, bcs
+        V = P.function_space
+        self.comm = V.mesh.comm
+        self.A = fem_petsc.create_matrix(a)
+        self.rhs = fem_petsc.create_vector(l)
+        self.residual_vec = fem_petsc.create_vector(l)
+        self.lower = fem.Function(V)
+        self.lower.x.array[:] = lower
+        self.upper = fem.Function(V)
+        self.upper.x.array[:] = PETSc.INFINITY
+        # The bounds must not bind Dirichlet dofs whose value lies below P_cav.
+        for bc in bcs:
+            dofs = bc.dof_indices()[0]
+            self.lower.x.array[dofs] = np.minimum(self.lower.x.array[dofs], bc.g.x.array[dofs] if hasattr(bc.g, "x") else lower)
+        self.lower.x.scatter_forward()
+        self.prefix = f"film{next(_instance_counter)}_"
+        self.snes = PETSc.SNES().create(self.comm)
+        self.snes.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": _lu_package(self.comm), **(options or {})}
+        for key, value in merged.items():
+            opts[self.prefix + key] = value
+        self.snes.setFromOptions()
+        for key in merged:  # keep the global options database clean (FESTIM, PETSc issue 1201)
+            opts.delValue(self.prefix + key)
+        self.snes.setFunction(self._residual, self.residual_vec)
+        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setVariableBounds(self.lower.vector, self.upper.vector)
+        self._sens_ksp: PETSc.KSP | None = None
+        self.iterations = 0
+        self.update()
+
+    # -- assembly -------------------------------------------------------------------------------
+    def update(self) -> None:
+        """Assemble A and l for the current coefficients (call after the kinematics change)."""
+        self.A.zeroEntries()
+        fem_petsc.assemble_matrix(self.A, self.a, bcs=self.bcs)
+        self.A.assemble()
+        with self.rhs.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self.rhs, self.l)
+        # r = A P + l on interior rows with P = g on Dirichlet dofs: l += A[:, bc] g; r_bc = P_bc - g.
+        fem_petsc.apply_lifting(self.rhs, [self.a], bcs=[self.bcs], scale=-1.0)
+        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(self.rhs, self.bcs, scale=-1.0)
+        self._sens_ksp = None
+
+    def _residual(self, snes, x, r) -> None:
+        self.A.mult(x, r)
+        r.axpy(1.0, self.rhs)
+
+    def _jacobian(self, snes, x, J, P) -> None:
+        pass  # A is assembled in update(): the problem is linear
+
+    # -- solve ----------------------------------------------------------------------------------
+    def solve(self) -> int:
+        """Solve the VI from the current P (warm start); returns the number of Newton iterations.
+
+        Raises:
+            FilmNotConverged: SNES diverged, or it reported convergence with the bounds violated
+                (possible after a failed line search).
+        """
+        x = self.P.vector
+        fem_petsc.set_bc(x, self.bcs)  # Dirichlet values exactly, so r = A P + l holds
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.snes.solve(None, x)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        reason = self.snes.getConvergedReason()
+        self.iterations = self.snes.getIterationNumber()
+        if reason <= 0:
+            raise FilmNotConverged("film solve did not converge", reason, self.iterations)
+        violation = self.comm.allreduce(float(np.max(self.lower.x.array - self.P.x.array, initial=0.0)), op=_max_op())
+        if violation > 1e-8 * max(1.0, self.pressure_scale()):
+            raise FilmNotConverged(f"film solve violated the cavitation bound by {violation:.3g}", reason, self.iterations)
+        self._sens_ksp = None
+        return self.iterations
+
+    def pressure_scale(self) -> float:
+        return self.P.vector.norm(PETSc.NormType.NORM_INFINITY)
+
+    # -- sensitivities --------------------------------------------------------------------------
+    def inactive_set(self) -> PETSc.IS:
+        """Global indices (owned by this rank) of the pressurised dofs of the last solution."""
+        self._residual(self.snes, self.P.vector, self.residual_vec)
+        x = self.P.vector.getArray(readonly=True)
+        r = self.residual_vec.getArray(readonly=True)
+        lo = self.lower.vector.getArray(readonly=True)
+        scale = max(1.0, self.comm.allreduce(float(np.max(np.abs(r), initial=0.0)), op=_max_op()))
+        active = (x <= lo + 1e-12 * max(1.0, self.pressure_scale())) & (r > 1e-10 * scale)
+        start = self.P.vector.getOwnershipRange()[0]
+        return PETSc.IS().createGeneral(np.flatnonzero(~active).astype(np.int32) + start, comm=self.comm)
+
+    def sensitivities(self, dr: list[PETSc.Vec]) -> list[PETSc.Vec]:
+        """dP = -A_II^{-1} dr_I on the inactive set, 0 elsewhere, for each residual derivative.
+
+        ``dr`` are the derivatives of the residual with respect to parameters at fixed P (Dirichlet
+        rows must be zero). One factorisation of A_II per solution, reused across calls.
+        """
+        if self._sens_ksp is None:
+            self._inactive = self.inactive_set()
+            A_II = self.A.createSubMatrix(self._inactive, self._inactive)
+            ksp = PETSc.KSP().create(self.comm)
+            ksp.setOperators(A_II)
+            ksp.setType("preonly")
+            ksp.getPC().setType("lu")
+            ksp.getPC().setFactorSolverType(_lu_package(self.comm))
+            ksp.setUp()
+            self._sens_ksp, self._A_II = ksp, A_II
+        out = []
+        for d in dr:
+            d_I = d.getSubVector(self._inactive)
+            dP_I = d_I.duplicate()
+            self._sens_ksp.solve(d_I, dP_I)
+            dP_I.scale(-1.0)
+            d.restoreSubVector(self._inactive, d_I)
+            dP = d.duplicate()
+            dP.set(0.0)
+            sub = dP.getSubVector(self._inactive)
+            dP_I.copy(sub)
+            dP.restoreSubVector(self._inactive, sub)
+            out.append(dP)
+        return out
+
+    # -- lifetime -------------------------------------------------------------------------------
+    def close(self) -> None:
+        for obj in (self.snes, self.A, self.rhs, self.residual_vec):
+            obj.destroy()
+        self._sens_ksp = None
+
+    def __enter__(self) -> CavitatingSolver:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _max_op():
+    from mpi4py import MPI
+
+    return MPI.MAX
