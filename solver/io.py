@@ -1,0 +1,117 @@
+"""Files: ParaView fields (XDMF), PNG plots, netCDF results. The only module that writes files.
+
+Every file is written under a temporary name (or in a temporary directory) and renamed into place,
+so an interrupted run never leaves a half-written file behind. Collective functions take the
+communicator from the mesh; only rank 0 writes plots.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+@contextlib.contextmanager
+def atomic_path(path: Path):
+    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds."""
+    path = Path(path)
+    part = path.with_name(f".{path.name}.part")
+    try:
+        yield part
+        os.replace(part, path)
+    finally:
+        if part.exists():
+            part.unlink()
+
+
+def _rotation_z(x: np.ndarray, angle: float) -> None:
+    c, s = math.cos(angle), math.sin(angle)
+    x0 = x[:, 0].copy()
+    x[:, 0] = c * x0 - s * x[:, 1]
+    x[:, 1] = s * x0 + c * x[:, 1]
+
+
+def write_film_fields(directory: Path, name: str, model, times: list[float] | None = None) -> Path:
+    """Write the film's pressure [Pa] and thickness [m] to ``directory/name.xdmf`` (+ ``.h5``).
+
+    The mesh is written in metres in the bushing frame (the solution frame turned back, see
+    solver.bearing). Collective on the model's communicator.
+    """
+    from dolfinx.io import XDMFFile
+
+    directory = Path(directory)
+    comm = model.comm
+    tmp = comm.bcast(tempfile.mkdtemp(prefix=".fields-", dir=directory) if comm.rank == 0 else None, root=0)
+    fields = model.fields_si()
+    x = model.mesh.geometry.x
+    original = x.copy()
+    try:
+        _rotation_z(x, getattr(model, "_beta", 0.0))
+        x *= model.bearing.radius
+        with XDMFFile(comm, str(Path(tmp) / f"{name}.xdmf"), "w") as xdmf:
+            xdmf.write_mesh(model.mesh)
+            for field in fields.values():
+                xdmf.write_function(field, 0.0)
+    finally:
+        x[:] = original
+    comm.Barrier()
+    if comm.rank == 0:
+        for suffix in (".xdmf", ".h5"):
+            os.replace(Path(tmp) / f"{name}{suffix}", directory / f"{name}{suffix}")
+        shutil.rmtree(tmp, ignore_errors=True)
+    comm.Barrier()
+    return directory / f"{name}.xdmf"
+
+
+def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(theta [deg, bushing frame], z [mm], p [MPa]) of all dofs on rank 0; None elsewhere."""
+    n = model.V.dofmap.index_map.size_local
+    coords = model.V.tabulate_dof_coordinates()[:n]
+    theta = (np.degrees(np.arctan2(coords[:, 1], coords[:, 0]) + getattr(model, "_beta", 0.0))) % 360.0
+    z = coords[:, 2] * model.bearing.radius * 1e3
+    p = model.P.x.array[:n] * model.scales.pressure * 1e-6
+    parts = model.comm.gather((theta, z, p), root=0)
+    if model.comm.rank != 0:
+        return None
+    return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
+
+
+def plot_pressure_map(path: Path, model, title: str = "") -> None:
+    """PNG of the film pressure over the unrolled bearing surface (theta, z). Collective."""
+    data = gather_pressure(model)
+    if data is None:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    theta, z, p = data
+    fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
+    levels = np.linspace(0.0, max(float(p.max()), 1e-12), 21)
+    cs = ax.tricontourf(theta, z, p, levels=levels, cmap="viridis")
+    fig.colorbar(cs, ax=ax, label="film pressure [MPa]")
+    ax.set_xlabel("bushing angle theta [deg]")
+    ax.set_ylabel("axial position z [mm]")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_title(title or "film pressure (cavitated where 0)")
+    with atomic_path(Path(path)) as part:
+        fig.savefig(part, dpi=120, format="png")
+    plt.close(fig)
+
+
+def write_json(path: Path, data: dict) -> None:
+    import json
+
+    with atomic_path(Path(path)) as part:
+        part.write_text(json.dumps(data, indent=2) + "\n")
+
+
+__all__ = ["atomic_path", "write_film_fields", "plot_pressure_map", "gather_pressure", "write_json"]

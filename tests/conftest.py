@@ -1,0 +1,62 @@
+"""Shared fixtures: the communicator, MPI-safe temporary directories, collective teardown.
+
+Markers: ``serial`` tests are skipped when the world has more than one rank; ``mpi`` tests are about
+parallel behaviour and are run on one rank and again under ``mpirun -n 2`` (scripts/test.sh).
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from mpi4py import MPI
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = ROOT.parent / "shared" / "data"
+
+
+def pytest_collection_modifyitems(config, items):
+    if MPI.COMM_WORLD.size > 1:
+        skip = pytest.mark.skip(reason="serial test (world size > 1)")
+        for item in items:
+            if "serial" in item.keywords:
+                item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def comm():
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture
+def tempdir(comm):
+    """A temporary directory shared by all ranks (rank 0 creates it, the name is broadcast)."""
+    path = comm.bcast(tempfile.mkdtemp(prefix="tribo-test-") if comm.rank == 0 else None, root=0)
+    yield Path(path)
+    comm.Barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+@pytest.fixture(autouse=True)
+def _collective_teardown():
+    """PETSc destructors are collective: collect garbage on all ranks together (dolfinx conftest)."""
+    yield
+    gc.collect()
+    MPI.COMM_WORLD.Barrier()
+
+
+def run_cli(*args: str, cwd: Path | None = None, timeout: float = 600):
+    """Run ``python -m solver ARGS`` in a subprocess with this interpreter; returns CompletedProcess."""
+    import subprocess
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("OMPI_COMM_WORLD_SIZE", None)
+    return subprocess.run([sys.executable, "-m", "solver", *args], capture_output=True, text=True,
+                          cwd=cwd or ROOT, timeout=timeout, env=env)

@@ -1,0 +1,67 @@
+"""``python3 -m solver bearing``: JSON interface and bad input (one line, exit 2, no traceback)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from tests.conftest import run_cli
+
+GOOD = ["--radius", "0.01", "--width", "0.02", "--clearance", "10e-6", "--viscosity", "0.01", "--speed", "3000"]
+KEYS = ["load_N", "attitude_deg", "eccentricity", "sommerfeld_So", "p_max_Pa", "h_min_m", "friction_torque_Nm",
+        "side_flow_m3_per_s", "dofs", "newton_iterations", "solve_time_s"]
+
+
+def _replace(args, flag, value):
+    out = list(args)
+    i = out.index(flag)
+    if value is None:
+        del out[i:i + 2]
+    else:
+        out[i + 1] = value
+    return out
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("args, names", [
+    (GOOD + ["--eccentricity", "1.0"], "--eccentricity"),
+    (GOOD + ["--eccentricity", "-0.1"], "--eccentricity"),
+    (_replace(GOOD, "--clearance", "0") + ["--eccentricity", "0.5"], "--clearance"),
+    (_replace(GOOD, "--clearance", "-1e-6") + ["--eccentricity", "0.5"], "--clearance"),
+    (_replace(GOOD, "--viscosity", "-0.01") + ["--eccentricity", "0.5"], "--viscosity"),
+    (_replace(GOOD, "--radius", "abc") + ["--eccentricity", "0.5"], "--radius"),
+    (_replace(GOOD, "--speed", "nan") + ["--eccentricity", "0.5"], "--speed"),
+    (_replace(GOOD, "--width", None) + ["--eccentricity", "0.5"], "--width"),
+    (GOOD, "--eccentricity"),  # neither --eccentricity nor --load
+    (GOOD + ["--eccentricity", "0.5", "--load", "100"], "--load"),
+    (GOOD + ["--eccentricity", "0.5", "--no-such-flag"], "--no-such-flag"),
+    (GOOD + ["--load", "-5"], "--load"),
+    (GOOD + ["--eccentricity", "0.5", "--mesh-size", "0"], "--mesh-size"),
+])
+def test_bad_input_is_one_line_exit_2(args, names):
+    proc = run_cli("bearing", *args)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), proc.stderr
+    assert names in lines[0]
+    assert "Traceback" not in proc.stderr and proc.stdout == ""
+
+
+@pytest.mark.serial
+def test_json_output_keys_and_values(tempdir):
+    """--load with --json: every key of the interface, the load carried, files written; the
+    Sommerfeld number recomputed from the reported load by its definition."""
+    proc = run_cli("bearing", *GOOD, "--load", "2000", "--json", "--mesh-size", "0.08", "--output", str(tempdir))
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    for key in KEYS:
+        assert key in report
+    assert report["load_N"] == pytest.approx(2000, rel=1e-6)
+    assert report["force_residual_N"] <= 1e-6 * 2000
+    So = 2000 * (10e-6 / 0.01) ** 2 / (0.02 * 0.02 * 0.01 * 3000 * 2 * math.pi / 60)
+    assert report["sommerfeld_So"] == pytest.approx(So, rel=1e-6)
+    assert report["h_min_m"] == pytest.approx(10e-6 * (1 - report["eccentricity"]), rel=1e-9)
+    for name in ("bearing_pressure.xdmf", "bearing_pressure.h5", "bearing_pressure.png", "bearing.json"):
+        assert (tempdir / name).stat().st_size > 0
