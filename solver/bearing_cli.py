@@ -40,8 +40,8 @@ def _number(name: str, low: float | None = None, high: float | None = None, low_
     return parse
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The bearing command's arguments."""
+def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
+    """Bearing geometry, oil and inlet (shared with the stribeck command)."""
     g = parser.add_argument_group("bearing")
     g.add_argument("--radius", required=True, type=_number("--radius", 0, allowed="> 0 m"), help="journal radius R [m]")
     g.add_argument("--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]")
@@ -57,6 +57,65 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--inlet", choices=("max-gap", "none"), default="max-gap",
                    help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
                         "assumption, default); none: cavitation alone decides")
+
+
+SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
+    "sigma_journal": ("--sigma-journal", _number("--sigma-journal", 0, low_open=False, allowed=">= 0 m"),
+                      "Rq roughness of the journal [m] (default 0: smooth)"),
+    "sigma_bushing": ("--sigma-bushing", _number("--sigma-bushing", 0, low_open=False, allowed=">= 0 m"),
+                      "Rq roughness of the bushing [m] (default 0: smooth)"),
+    "peklenik_gamma": ("--peklenik-gamma", _number("--peklenik-gamma", 0, allowed="> 0, fits in [1/9, 9]"),
+                       "Peklenik surface pattern parameter (default 1, isotropic)"),
+    "eta_beta_sigma": ("--eta-beta-sigma", _number("--eta-beta-sigma", 0, allowed="> 0"),
+                       "Greenwood-Tripp eta*beta*sigma (default 0.05)"),
+    "sigma_over_beta": ("--sigma-over-beta", _number("--sigma-over-beta", 0, allowed="> 0"),
+                        "Greenwood-Tripp sigma/beta (default 0.001)"),
+    "asperity_density": ("--asperity-density", _number("--asperity-density", 0, allowed="> 0 1/m^2"),
+                         "asperity density eta [1/m^2] (instead of --eta-beta-sigma)"),
+    "asperity_radius": ("--asperity-radius", _number("--asperity-radius", 0, allowed="> 0 m"),
+                        "asperity radius beta [m] (instead of --sigma-over-beta)"),
+    "E_journal": ("--E-journal", _number("--E-journal", 0, allowed="> 0 Pa"), "Young's modulus of the journal [Pa]"),
+    "nu_journal": ("--nu-journal", _number("--nu-journal", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the journal"),
+    "E_bushing": ("--E-bushing", _number("--E-bushing", 0, allowed="> 0 Pa"), "Young's modulus of the bushing [Pa]"),
+    "nu_bushing": ("--nu-bushing", _number("--nu-bushing", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the bushing"),
+    "E_composite": ("--E-composite", _number("--E-composite", 0, allowed="> 0 Pa"),
+                    "composite modulus E' [Pa] (instead of the moduli and Poisson's ratios)"),
+    "asperity_friction": ("--asperity-friction", _number("--asperity-friction", 0, 2, low_open=False, allowed="[0, 2)"),
+                          "asperity friction coefficient (default 0.1)"),
+}
+
+
+def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
+    """Roughness, asperity and material options (solver.surface.Surface; defaults: the reference engine)."""
+    g = parser.add_argument_group("surfaces (mixed lubrication; rough when a sigma > 0)")
+    for field, (flag, type_, help_text) in SURFACE_FLAGS.items():
+        g.add_argument(flag, dest=field, type=type_, default=None, help=help_text)
+    g.add_argument("--asperity-model", dest="asperity_model", choices=("exact", "fit"), default=None,
+                   help="F_5/2 by quadrature (exact, default) or the common fit")
+
+
+def surface_from_args(args):
+    """The Surface of the parsed options; errors name the command-line flag."""
+    from solver.surface import Surface
+
+    given = {f: getattr(args, f) for f in (*SURFACE_FLAGS, "asperity_model") if getattr(args, f) is not None}
+    if "asperity_density" in given:
+        given.setdefault("eta_beta_sigma", None)
+    if "asperity_radius" in given:
+        given.setdefault("sigma_over_beta", None)
+    try:
+        return Surface(**given)
+    except InputError as err:
+        message = str(err)
+        for field, (flag, _, _) in SURFACE_FLAGS.items():
+            message = message.replace(field, flag)
+        raise InputError(message.replace("asperity_model", "--asperity-model")) from None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The bearing command's arguments."""
+    add_geometry_arguments(parser)
+    add_surface_arguments(parser)
     mode = parser.add_mutually_exclusive_group(required=True)
     mode.add_argument("--eccentricity", type=_number("--eccentricity", 0, 1, low_open=False, allowed="[0, 1)"),
                       help="eccentricity ratio e/c")
@@ -86,20 +145,28 @@ def _check(args) -> None:
         pass  # concentric rotation: zero load, still a valid question (friction, flow)
 
 
+def bearing_from_args(args):
+    from solver.bearing import Bearing
+
+    return Bearing(radius=args.radius, width=args.width, clearance=args.clearance, viscosity=args.viscosity,
+                   cavitation_pressure=args.cavitation_pressure, inlet=args.inlet)
+
+
 def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     _check(args)
     from solver import io
-    from solver.bearing import DEFAULT_MESH_SIZE, Bearing, FilmModel, Kinematics, equilibrium
+    from solver.bearing import DEFAULT_MESH_SIZE, FilmModel, Kinematics, equilibrium
 
-    bearing = Bearing(radius=args.radius, width=args.width, clearance=args.clearance, viscosity=args.viscosity,
-                      cavitation_pressure=args.cavitation_pressure, inlet=args.inlet)
+    bearing = bearing_from_args(args)
+    surface = surface_from_args(args)
     omega = args.speed * 2 * math.pi / 60
     rate = args.eccentricity_rate
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
     model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size or DEFAULT_MESH_SIZE,
-                      degree=args.degree)
+                      degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
+                      slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3)
     setup_time = time.perf_counter() - start
     c = args.clearance
     load_angle = -math.pi / 2  # the load acts along -y
@@ -136,9 +203,18 @@ def run(args, comm) -> int:
         "friction_torque_bushing_Nm": result.torque_bushing, "p_max_angle_deg": math.degrees(result.p_max_theta),
         "p_max_z_m": result.p_max_z, "ecc_x_m": kin.ecc[0], "ecc_y_m": kin.ecc[1],
         "vi_iterations": result.iterations, "setup_time_s": setup_time,
+        # mixed lubrication
+        "hydro_load_N": result.hydro_load, "asperity_load_N": result.asperity_load,
+        "asperity_share": result.asperity_load / load if load > 0 else 0.0,
+        "contact_area_ratio": result.contact_area_ratio,
+        "friction_coefficient": abs(result.torque_journal) / (args.radius * load) if load > 0 else math.inf,
+        "asperity_friction_torque_Nm": result.asperity_torque_journal,
+        "power_loss_W": abs(result.torque_journal * omega),
+        "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
     }
     if residual is not None:
         report["force_residual_N"] = residual
+    report["attitude_deg"] = None if math.isnan(attitude) else attitude
     if args.output is not None:
         out = args.output
         if comm.rank == 0:
@@ -169,5 +245,11 @@ def _print_table(report: dict, stream) -> None:
     ]
     if "force_residual_N" in report:
         rows.append(("force residual", report["force_residual_N"], "N"))
+    if report["h_min_over_sigma"] is not None:
+        rows += [("hydrodynamic load", report["hydro_load_N"], "N"), ("asperity load", report["asperity_load_N"], "N"),
+                 ("h_min / sigma", report["h_min_over_sigma"], ""),
+                 ("real contact area ratio", report["contact_area_ratio"], "")]
+    rows += [("friction coefficient", report["friction_coefficient"], ""), ("power loss", report["power_loss_W"], "W")]
     for label, value, unit in rows:
-        print(f"{label:28s} {value:14.6g} {unit}", file=stream)
+        text = "n/a" if value is None else f"{value:14.6g}"
+        print(f"{label:28s} {text:>14s} {unit}", file=stream)

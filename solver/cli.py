@@ -21,6 +21,7 @@ from solver.errors import InputError
 # argument errors do not pay for importing dolfinx.
 COMMANDS: dict[str, tuple[str, str]] = {
     "bearing": ("solver.bearing_cli", "one journal bearing: load at given eccentricity, or equilibrium under a load"),
+    "stribeck": ("solver.stribeck_cli", "friction coefficient against speed at a fixed load (Stribeck curve)"),
     "engine": ("solver.engine_cli", "the crank-rod-piston engine cycle with ideal joints"),
 }
 

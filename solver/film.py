@@ -152,3 +152,18 @@ def shear_traction_integrands(P, geometry: FilmGeometry, roughness: Roughness | 
     tau_journal = couette * (Phi_f - Phi_fs) - Phi_fp * poiseuille
     tau_bushing = -couette * (Phi_f + Phi_fs) - Phi_fp * poiseuille
     return tau_journal, tau_bushing
+
+
+def asperity_integrands(geometry: FilmGeometry, contact, pressure_ref: float, slip_regularisation: float):
+    """Greenwood-Tripp asperity pressure, its friction traction on the journal, and the contact area ratio.
+
+    Returns ``(P_c, tau_c_journal, area_ratio)`` with P_c = p_c / p_ref and tau_c in units of p_ref.
+    The asperity friction ``mu_f p_c`` acts on the journal along the bushing's velocity relative to
+    it, ``sign(U1 - U2)``, regularised as ``x / sqrt(x^2 + x_reg^2)`` so that the torque is smooth
+    when the sliding reverses (as it does twice per revolution in an engine's small end).
+    """
+    Hs = geometry.H / geometry.params.S
+    P_c = contact.pressure(Hs, mod=ufl) / pressure_ref
+    slip = 2.0 * geometry.params.U_half_diff  # (U1 - U2) / (R omega_ref)
+    direction = slip / ufl.sqrt(slip**2 + slip_regularisation**2)
+    return P_c, contact.friction * P_c * direction, contact.area_ratio(Hs, mod=ufl)

@@ -115,3 +115,59 @@ def write_json(path: Path, data: dict) -> None:
 
 
 __all__ = ["atomic_path", "write_film_fields", "plot_pressure_map", "gather_pressure", "write_json"]
+
+
+def write_netcdf(ds, path: Path) -> None:
+    """Write an xarray Dataset to netCDF atomically (compressed variables)."""
+    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars}
+    with atomic_path(Path(path)) as part:
+        ds.to_netcdf(part, encoding=encoding, format="NETCDF4")
+
+
+STRIBECK_VARIABLES = {  # name -> (units, long_name)
+    "eccentricity": ("1", "eccentricity ratio e/c"),
+    "h_min": ("m", "minimum film thickness"),
+    "h_min_over_sigma": ("1", "minimum film thickness over composite roughness"),
+    "friction_coefficient": ("1", "friction coefficient |M_journal| / (R W)"),
+    "hydro_load": ("N", "load carried by the film pressure"),
+    "asperity_load": ("N", "load carried by asperity contact"),
+    "friction_torque": ("N m", "friction torque on the journal"),
+    "asperity_friction_torque": ("N m", "asperity part of the friction torque on the journal"),
+    "power_loss": ("W", "friction power loss"),
+    "p_max": ("Pa", "peak film pressure"),
+    "contact_area_ratio": ("1", "real contact area over nominal area"),
+}
+
+
+def stribeck_dataset(speeds_rpm, hersey, petroff, data: dict, attrs: dict):
+    import xarray as xr
+
+    variables = {name: ("speed", data[name], {"units": u, "long_name": ln}) for name, (u, ln) in STRIBECK_VARIABLES.items()}
+    variables["hersey_number"] = ("speed", hersey, {"units": "1", "long_name": "Hersey number eta N / P (N in rev/s)"})
+    variables["petroff_friction_coefficient"] = ("speed", petroff, {"units": "1", "long_name": "Petroff's law"})
+    return xr.Dataset(variables, coords={"speed": ("speed", speeds_rpm, {"units": "rpm", "long_name": "journal speed"})},
+                      attrs=attrs)
+
+
+def plot_stribeck(ds, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    ax.loglog(ds.hersey_number, ds.friction_coefficient, "o-", label="finite-element mixed lubrication")
+    ax.loglog(ds.hersey_number, ds.petroff_friction_coefficient, "--", color="gray", label="Petroff")
+    mu_f = ds.attrs.get("asperity_friction")
+    if mu_f:
+        ax.axhline(mu_f, color="tab:red", ls=":", label="asperity friction coefficient")
+    f = ds.friction_coefficient.values
+    ax.set_ylim(0.3 * np.nanmin(f), 3 * max(np.nanmax(f), mu_f or 0))
+    ax.set_xlabel("Hersey number eta N / P")
+    ax.set_ylabel("friction coefficient")
+    ax.set_title(f"Stribeck curve, load {ds.attrs['load_N']:g} N")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    with atomic_path(Path(path)) as part:
+        fig.savefig(part, dpi=120, format="png")
+    plt.close(fig)
