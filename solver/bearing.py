@@ -209,10 +209,10 @@ class FilmModel:
                                  omega_ref=omega_ref)
         if degree not in (1, 2):
             raise out_of_range("degree", degree, "1 or 2")
-        sigmas = {round(x.sigma, 15) for x in (roughness, contact) if x is not None}
-        if len(sigmas) > 1:
+        sigmas = [x.sigma for x in (roughness, contact) if x is not None]
+        if sigmas and not math.isclose(min(sigmas), max(sigmas), rel_tol=1e-12):
             raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
-        self.sigma = sigmas.pop() if sigmas else 0.0
+        self.sigma = sigmas[0] if sigmas else 0.0
         R = bearing.radius
         hole = None
         if bearing.supply_hole_angle is not None:

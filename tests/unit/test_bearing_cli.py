@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from tests.conftest import run_cli
@@ -65,3 +66,55 @@ def test_json_output_keys_and_values(tempdir):
     assert report["h_min_m"] == pytest.approx(10e-6 * (1 - report["eccentricity"]), rel=1e-9)
     for name in ("bearing_pressure.xdmf", "bearing_pressure.h5", "bearing_pressure.png", "bearing.json"):
         assert (tempdir / name).stat().st_size > 0
+
+
+ROUGH = ["--sigma-journal", "0.1e-6", "--sigma-bushing", "0.3e-6"]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("args, name", [
+    (["--sigma-journal", "-1e-7"], "--sigma-journal"),
+    (ROUGH + ["--peklenik-gamma", "0"], "--peklenik-gamma"),
+    (ROUGH + ["--nu-journal", "0.6"], "--nu-journal"),
+    (ROUGH + ["--nu-bushing", "-1"], "--nu-bushing"),
+    (ROUGH + ["--E-bushing", "-5e9"], "--E-bushing"),
+    (ROUGH + ["--eta-beta-sigma", "0"], "--eta-beta-sigma"),
+    (ROUGH + ["--asperity-density", "1e10", "--eta-beta-sigma", "0.04"], "--eta-beta-sigma"),  # both: ambiguous
+])
+def test_bad_surface_input_is_one_line_exit_2(args, name):
+    proc = run_cli("bearing", *GOOD, "--eccentricity", "0.5", *args)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and name in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.serial
+def test_mixed_json_keys():
+    """Rough surfaces at low speed: the new keys are present and consistent: hydro + asperity
+    loads make the load (the asperity force is nearly parallel to the film force near h_min, so the
+    sum of magnitudes exceeds the load by < 1 %), power = |M| omega, h_min/sigma by definition."""
+    proc = run_cli("bearing", *_replace(GOOD, "--speed", "30"), *ROUGH, "--load", "500", "--json", "--mesh-size", "0.1")
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    for key in ("asperity_load_N", "hydro_load_N", "friction_coefficient", "power_loss_W", "h_min_over_sigma"):
+        assert key in r
+    assert r["asperity_load_N"] > 0.01 * r["load_N"]
+    assert r["load_N"] <= r["asperity_load_N"] + r["hydro_load_N"] <= 1.01 * r["load_N"]
+    assert r["power_loss_W"] == pytest.approx(abs(r["friction_torque_Nm"]) * 30 * 2 * math.pi / 60, rel=1e-9)
+    assert r["h_min_over_sigma"] == pytest.approx(r["h_min_m"] / math.hypot(0.1e-6, 0.3e-6), rel=1e-9)
+    assert r["friction_coefficient"] == pytest.approx(abs(r["friction_torque_Nm"]) / (0.01 * r["load_N"]), rel=1e-9)
+
+
+@pytest.mark.serial
+def test_stribeck_writes_netcdf_and_png(tempdir):
+    import xarray as xr
+
+    proc = run_cli("stribeck", *_replace(GOOD, "--speed", None), *ROUGH, "--load", "500", "--points", "4",
+                   "--speed-min", "10", "--speed-max", "5000", "--mesh-size", "0.1", "--output", str(tempdir), "--json")
+    assert proc.returncode == 0, proc.stderr
+    with xr.open_dataset(tempdir / "stribeck.nc") as ds:
+        assert ds.sizes["speed"] == 4
+        assert ds.friction_coefficient.attrs["units"] == "1"
+        assert np.all(np.isfinite(ds.friction_coefficient))
+    assert (tempdir / "stribeck.png").stat().st_size > 10_000
