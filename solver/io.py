@@ -93,6 +93,10 @@ def plot_pressure_map(path: Path, model, title: str = "") -> None:
     import matplotlib.pyplot as plt
 
     theta, z, p = data
+    # repeat a strip across the seam so that the contours reach 0 and 360 deg
+    low, high = theta < 20, theta > 340
+    theta = np.concatenate([theta, theta[low] + 360, theta[high] - 360])
+    z, p = np.concatenate([z, z[low], z[high]]), np.concatenate([p, p[low], p[high]])
     fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
     levels = np.linspace(0.0, max(float(p.max()), 1e-12), 21)
     cs = ax.tricontourf(theta, z, p, levels=levels, cmap="viridis")
