@@ -168,10 +168,10 @@ class FilmJacobian:
     """d(output)/d(input) at the last solution, active set frozen (SI).
 
     Rows: total force_x, force_y, torque_journal, torque_bushing. Columns: ecc_x, ecc_y (per m),
-    ecc_rate_x, ecc_rate_y (per m/s).
+    ecc_rate_x, ecc_rate_y (per m/s), omega_journal - omega_bushing (per rad/s).
     """
 
-    matrix: np.ndarray  # (4, 4)
+    matrix: np.ndarray  # (4, 5)
 
     @property
     def force_ecc(self) -> np.ndarray:
@@ -179,7 +179,7 @@ class FilmJacobian:
 
     @property
     def force_rate(self) -> np.ndarray:
-        return self.matrix[:2, 2:]
+        return self.matrix[:2, 2:4]
 
 
 # Rows of the Jacobian and how the model's functionals add up to them.
@@ -400,7 +400,7 @@ class FilmModel:
         return max(self.comm.allgather(local))
 
     def jacobian(self) -> FilmJacobian:
-        """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y), SI."""
+        """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y, omega_rel), SI."""
         if self._last is None:
             raise RuntimeError("jacobian() needs a solve() first")
         dr = []
@@ -411,18 +411,17 @@ class FilmModel:
             dr.append(vec)
         dP = self.solver.sensitivities(dr)
         s = self.scales
-        # In the solution frame, SI outputs per dimensionless input (eps, deps).
-        J = np.zeros((4, 4))
+        # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
+        n_in = len(self._dr_forms)
+        J = np.zeros((4, n_in))
         for name, (_, scale, row) in self._outputs.items():
             i = _JACOBIAN_ROWS.index(row)
             grad = self._force_vectors.get(name)
-            if grad is None and name in self._dJ_dP:
+            owned = grad is None and name in self._dJ_dP
+            if owned:
                 grad = fem_petsc.assemble_vector(self._dJ_dP[name])
                 grad.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                owned = True
-            else:
-                owned = False
-            for j in range(4):
+            for j in range(n_in):
                 value = self._assemble(self._dJ_explicit[name][j]) if name in self._dJ_explicit else 0.0
                 if grad is not None:
                     value += grad.dot(dP[j])
@@ -431,6 +430,8 @@ class FilmModel:
                 grad.destroy()
         for vec in dr + dP:
             vec.destroy()
+        # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.
+        J = np.column_stack([J[:, :4], (J[:, 4] - J[:, 5]) / (2 * s.omega_ref)])
         if self.bearing.inlet == "max-gap" and math.hypot(*self._last.ecc) > 1e-9 * self.bearing.clearance:
             # In the solution frame the eccentricity is (-a, 0) and turning it (d eps'_y = -a dphi)
             # turns the inlet line with it. Turning eps and its rate together is a symmetry
@@ -439,15 +440,16 @@ class FilmModel:
             a = math.hypot(*self._last.ecc) / self.bearing.clearance
             S = np.array([[0.0, -1.0], [1.0, 0.0]])
             rate = _rotation(-self._beta) @ np.asarray(self._last.ecc_rate) / s.eccentricity_rate
-            d_dphi = -J[:, 2:] @ (S @ rate)
+            d_dphi = -J[:, 2:4] @ (S @ rate)
             d_dphi[:2] += S @ self._force_solved
             J[:, 1] = d_dphi / (-a)
         rot, rot_back = _rotation(self._beta), _rotation(-self._beta)
         J[:2, :2] = rot @ J[:2, :2] @ rot_back
-        J[:2, 2:] = rot @ J[:2, 2:] @ rot_back
+        J[:2, 2:4] = rot @ J[:2, 2:4] @ rot_back
+        J[:2, 4] = rot @ J[:2, 4]
         J[2:, :2] = J[2:, :2] @ rot_back
-        J[2:, 2:] = J[2:, 2:] @ rot_back
-        in_scale = np.array([self.bearing.clearance] * 2 + [s.eccentricity_rate] * 2)[None, :]
+        J[2:, 2:4] = J[2:, 2:4] @ rot_back
+        in_scale = np.array([self.bearing.clearance] * 2 + [s.eccentricity_rate] * 2 + [1.0])[None, :]
         return FilmJacobian(J / in_scale)
 
     # -- fields ---------------------------------------------------------------------------------

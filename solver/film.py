@@ -96,6 +96,7 @@ class FilmGeometry:
         self.axial = ufl.as_vector((0.0, 0.0, 1.0))
         self.eps_x, self.eps_y = ufl.variable(params.eps_x), ufl.variable(params.eps_y)
         self.deps_x, self.deps_y = ufl.variable(params.deps_x), ufl.variable(params.deps_y)
+        self.U_mean, self.U_half_diff = ufl.variable(params.U_mean), ufl.variable(params.U_half_diff)
         self.params = params
         self.H = 1.0 - self.eps_x * self.cos - self.eps_y * self.sin
         self.dH_dtheta = self.eps_x * self.sin - self.eps_y * self.cos
@@ -103,7 +104,8 @@ class FilmGeometry:
 
     def variables(self) -> dict[str, Any]:
         """The UFL variables the film's Jacobian is taken with respect to."""
-        return {"eps_x": self.eps_x, "eps_y": self.eps_y, "deps_x": self.deps_x, "deps_y": self.deps_y}
+        return {"eps_x": self.eps_x, "eps_y": self.eps_y, "deps_x": self.deps_x, "deps_y": self.deps_y,
+                "U_mean": self.U_mean, "U_half_diff": self.U_half_diff}
 
 
 def flow_factors(geometry: FilmGeometry, roughness: Roughness | None):
@@ -120,12 +122,12 @@ def reynolds_integrand(P, v, geometry: FilmGeometry, roughness: Roughness | None
     g, prm = geometry, geometry.params
     phi_x, phi_y, phi_s, phi_c = flow_factors(g, roughness)
     D = g.H**3 * (phi_x * ufl.outer(g.tangent, g.tangent) + phi_y * ufl.outer(g.axial, g.axial))
-    source = prm.U_mean * phi_c * g.dH_dtheta + phi_c * g.dH_dT
+    source = g.U_mean * phi_c * g.dH_dtheta + phi_c * g.dH_dT
     if roughness is not None:
         # U_d S dphi_s/dtheta, with dphi_s/dtheta = dphi_s/dHs * dH/dtheta / S
         Hs = ufl.variable(g.H / prm.S)
         dphi_s = ufl.diff(roughness.shear_flow(Hs, mod=ufl), Hs)
-        source += prm.U_half_diff * dphi_s * g.dH_dtheta
+        source += g.U_half_diff * dphi_s * g.dH_dtheta
     return ufl.inner(D * ufl.grad(P), ufl.grad(v)) + source * v
 
 
@@ -142,7 +144,7 @@ def shear_traction_integrands(P, geometry: FilmGeometry, roughness: Roughness | 
     """
     g, prm = geometry, geometry.params
     dP_dtheta = ufl.dot(ufl.grad(P), g.tangent)
-    relative_speed = 2.0 * prm.U_half_diff  # (U1 - U2) / (R omega_ref)
+    relative_speed = 2.0 * g.U_half_diff  # (U1 - U2) / (R omega_ref)
     if roughness is None:
         Phi_f, Phi_fs, Phi_fp = 1.0, 0.0, 1.0
     else:
@@ -164,6 +166,6 @@ def asperity_integrands(geometry: FilmGeometry, contact, pressure_ref: float, sl
     """
     Hs = geometry.H / geometry.params.S
     P_c = contact.pressure(Hs, mod=ufl) / pressure_ref
-    slip = 2.0 * geometry.params.U_half_diff  # (U1 - U2) / (R omega_ref)
+    slip = 2.0 * geometry.U_half_diff  # (U1 - U2) / (R omega_ref)
     direction = slip / ufl.sqrt(slip**2 + slip_regularisation**2)
     return P_c, contact.friction * P_c * direction, contact.area_ratio(Hs, mod=ufl)
