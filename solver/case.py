@@ -1,0 +1,512 @@
+"""The case description: ``case.toml`` -> validated, frozen dataclasses in SI units.
+
+Outside (TOML) every key carries its unit when it is not an SI base unit (``bore_mm``,
+``speed_rpm``, ``clearance_um``); inside every float is SI (m, kg, s, rad, Pa). The conversion
+happens once, in :func:`load_case`. One table, :data:`FIELDS`, holds every key: its unit factor,
+default, allowed range and meaning. It drives the loader, the range checks in ``__post_init__`` (so
+a dataclass built in Python is checked too) and :func:`case_reference_markdown`, the README table.
+
+The defaults are the reference engine of DESIGN 3.7 (a 2.0 L four-cylinder gasoline engine, one
+cylinder, 2000 rpm, single-zone pressure with a 60 bar peak). A case file only needs what differs
+from it; ``name`` defaults to the case directory's name. Errors are :class:`InputError` with one line
+that names the field as ``section.key`` and its allowed range.
+
+Sections: ``[engine]``, ``[gas]`` (used by the engine model now), ``[small_end]``, ``[oil]``,
+``[surface]`` (for the lubricated small end, validated now) and ``[solver]`` (``step_deg``; other keys
+are kept unvalidated in ``Solver.options`` for later issues).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+import types
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from solver.errors import InputError, out_of_range
+
+RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
+DEG = math.pi / 180.0  # rad per degree
+BAR = 1e5  # Pa per bar
+
+
+@dataclasses.dataclass(frozen=True)
+class FieldSpec:
+    """One key of case.toml.
+
+    Attributes:
+        section: TOML table (``""`` for top-level keys).
+        key: TOML key, with its unit suffix.
+        attribute: dataclass attribute (SI value).
+        kind: ``float``, ``bool``, ``str`` or ``Path`` (a file name relative to the case directory).
+        default: default in TOML units; ``None`` = optional and absent.
+        scale: SI value = scale * TOML value (floats only).
+        minimum: lower bound in TOML units, or ``None``.
+        maximum: upper bound in TOML units, or ``None``.
+        open_interval: the bounds themselves are excluded.
+        choices: allowed strings (``kind is str``), or ``None``.
+        unit: unit of the TOML value, for the documentation.
+        doc: one-line meaning.
+    """
+
+    section: str
+    key: str
+    attribute: str
+    kind: type
+    default: Any
+    scale: float = 1.0
+    minimum: float | None = None
+    maximum: float | None = None
+    open_interval: bool = True
+    choices: tuple[str, ...] | None = None
+    unit: str = ""
+    doc: str = ""
+
+    @property
+    def name(self) -> str:
+        """``section.key`` as used in messages."""
+        return f"{self.section}.{self.key}" if self.section else self.key
+
+    def allowed(self) -> str:
+        """The allowed range as text, e.g. ``> 0`` or ``(180, 540)``."""
+        if self.choices:
+            return ", ".join(repr(choice) for choice in self.choices)
+        if self.kind is bool:
+            return "true, false"
+        if self.kind is not float:
+            return "any" if self.kind is str else "an existing file"
+        low, high = self.minimum, self.maximum
+        if low is not None and high is not None:
+            left, right = ("(", ")") if self.open_interval else ("[", "]")
+            return f"{left}{low:g}, {high:g}{right}"
+        if low is not None:
+            return f"{'>' if self.open_interval else '>='} {low:g}"
+        if high is not None:
+            return f"{'<' if self.open_interval else '<='} {high:g}"
+        return "any number"
+
+    def check(self, si_value: Any) -> None:
+        """Raise InputError if the SI value is outside the allowed range."""
+        if si_value is None or self.kind is not float:
+            if self.choices and si_value not in self.choices:
+                raise out_of_range(self.name, repr(si_value), self.allowed())
+            return
+        value = si_value / self.scale
+        bad = not math.isfinite(value)
+        if self.minimum is not None:
+            bad |= value <= self.minimum if self.open_interval else value < self.minimum
+        if self.maximum is not None:
+            bad |= value >= self.maximum if self.open_interval else value > self.maximum
+        if bad:
+            raise out_of_range(self.name, f"{value:g}", self.allowed())
+
+
+def _f(section, key, attribute, default, scale=1.0, minimum=None, maximum=None, *, closed=False, unit="",
+       doc=""):
+    """A float field; ``closed`` includes the bounds."""
+    return FieldSpec(
+        section, key, attribute, float, default, scale, minimum, maximum, not closed, None, unit, doc
+    )
+
+
+#: Every key of case.toml (single source of the loader, the checks and the README table).
+FIELDS: tuple[FieldSpec, ...] = (
+    FieldSpec("", "name", "name", str, None, unit="", doc="case name (default: the case directory's name)"),
+    FieldSpec("", "description", "description", str, "", doc="free text"),
+    # [engine] -- DESIGN 3.7 frame: origin at the crank centre, +x from crank to piston, crank turns CCW
+    _f("engine", "speed_rpm", "speed", 2000.0, RPM, 0.0, 30000.0, unit="rpm", doc="constant crank speed"),
+    FieldSpec("engine", "speed_file", "speed_file", Path, None,
+              doc="optional CSV `crank_angle_deg,speed_rpm` over 0-720 deg; replaces speed_rpm"),
+    _f("engine", "bore_mm", "bore", 86.0, 1e-3, 0.0, unit="mm", doc="cylinder bore"),
+    _f("engine", "crank_radius_mm", "crank_radius", 43.0, 1e-3, 0.0, unit="mm",
+       doc="crank radius r (stroke = 2 r)"),
+    _f("engine", "rod_length_mm", "rod_length", 145.0, 1e-3, 0.0, unit="mm",
+       doc="connecting rod length l, big-end to small-end centre; > crank radius + |pin offset|"),
+    _f("engine", "pin_offset_mm", "pin_offset", 0.0, 1e-3, unit="mm",
+       doc="lateral (+y) offset of the piston pin from the cylinder axis"),
+    _f("engine", "rod_mass_kg", "rod_mass", 0.55, 1.0, 0.0, unit="kg", doc="connecting rod mass"),
+    _f("engine", "rod_inertia_kg_m2", "rod_inertia", 2.2e-3, 1.0, 0.0, unit="kg m^2",
+       doc="rod moment of inertia about its centre of mass"),
+    _f("engine", "rod_cg_from_big_end_mm", "rod_cg_from_big_end", 35.0, 1e-3, 0.0, unit="mm",
+       closed=True,
+       doc="distance of the rod's centre of mass from the big-end centre, on the rod axis; <= rod length"),
+    _f("engine", "piston_mass_kg", "piston_mass", 0.45, 1.0, 0.0, unit="kg",
+       doc="piston assembly mass (pin, rings included); centre of mass at the pin"),
+    _f("engine", "crank_mass_kg", "crank_mass", 0.0, 1.0, 0.0, closed=True, unit="kg",
+       doc="crank throw mass, centre of mass on the crank axis (only its weight loads the main bearing)"),
+    _f("engine", "crank_inertia_kg_m2", "crank_inertia", 0.0, 1.0, 0.0, closed=True, unit="kg m^2",
+       doc="crank inertia about its axis (matters with a speed trace)"),
+    FieldSpec("engine", "gravity", "gravity", bool, True, doc="gravity along -x (9.80665 m/s^2)"),
+    # [gas]
+    FieldSpec("gas", "model", "model", str, None, choices=("single-zone", "motored", "trace", "none"),
+              doc="cylinder pressure: single-zone model, motored (no combustion), CSV trace, or none "
+                  "(p = crankcase pressure); default: trace if pressure_file is given, else single-zone"),
+    FieldSpec("gas", "pressure_file", "pressure_file", Path, None,
+              doc="CSV `crank_angle_deg,pressure_bar` (or `pressure_Pa`, `pressure_MPa`), absolute, "
+                  "0-720 deg"),
+    _f("gas", "compression_ratio", "compression_ratio", 10.5, 1.0, 1.0, 40.0, doc="(V_c + V_d) / V_c"),
+    _f("gas", "polytropic_exponent", "polytropic_exponent", 1.32, 1.0, 1.0, 5.0 / 3.0,
+       doc="n of p V^n = const for compression and expansion"),
+    _f("gas", "peak_pressure_bar", "peak_pressure", 60.0, BAR, 0.0, unit="bar",
+       doc="target peak cylinder pressure (absolute); default unless imep_bar is given"),
+    _f("gas", "imep_bar", "imep", None, BAR, 0.0, unit="bar",
+       doc="target net IMEP (instead of peak_pressure_bar)"),
+    _f("gas", "combustion_start_deg", "combustion_start", 350.0, DEG, 180.0, 540.0, unit="deg",
+       doc="start of heat release (360 = firing TDC)"),
+    _f("gas", "combustion_duration_deg", "combustion_duration", 50.0, DEG, 0.0, 360.0, unit="deg",
+       doc="Wiebe combustion duration; start + duration < 540"),
+    _f("gas", "wiebe_a", "wiebe_a", 5.0, 1.0, 0.0, 50.0, doc="Wiebe efficiency parameter a"),
+    _f("gas", "wiebe_m", "wiebe_m", 2.0, 1.0, -1.0, 10.0, doc="Wiebe form factor m"),
+    _f("gas", "intake_pressure_bar", "intake_pressure", 1.0, BAR, 0.0, unit="bar",
+       doc="intake pressure (0-180 deg and start of compression), absolute"),
+    _f("gas", "exhaust_pressure_bar", "exhaust_pressure", 1.1, BAR, 0.0, unit="bar",
+       doc="exhaust pressure (540-720 deg), absolute"),
+    _f("gas", "crankcase_pressure_bar", "crankcase_pressure", 1.0, BAR, 0.0, unit="bar", closed=True,
+       doc="crankcase pressure under the piston, absolute"),
+    # [small_end]
+    _f("small_end", "pin_radius_mm", "pin_radius", 10.0, 1e-3, 0.0, unit="mm", doc="piston pin radius R"),
+    _f("small_end", "width_mm", "width", 20.0, 1e-3, 0.0, unit="mm", doc="bushing width B"),
+    _f("small_end", "clearance_um", "clearance", 10.0, 1e-6, 0.0, unit="um",
+       doc="radial clearance c; < pin radius"),
+    # [oil]
+    _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s", doc="dynamic viscosity"),
+    _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
+       doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
+    # [surface]
+    _f("surface", "sigma_pin_um", "sigma_pin", 0.1, 1e-6, 0.0, closed=True, unit="um",
+       doc="pin roughness Rq"),
+    _f("surface", "sigma_bushing_um", "sigma_bushing", 0.3, 1e-6, 0.0, closed=True, unit="um",
+       doc="bushing roughness Rq (composite sigma must be > 0)"),
+    _f("surface", "peklenik_gamma", "peklenik_gamma", 1.0, 1.0, 0.0,
+       doc="Peklenik surface pattern parameter"),
+    _f("surface", "eta_beta_sigma", "eta_beta_sigma", 0.05, 1.0, 0.0, doc="Greenwood-Tripp eta beta sigma"),
+    _f("surface", "sigma_over_beta", "sigma_over_beta", 0.001, 1.0, 0.0, doc="Greenwood-Tripp sigma / beta"),
+    _f("surface", "E_pin_GPa", "E_pin", 210.0, 1e9, 0.0, unit="GPa", doc="pin Young's modulus"),
+    _f("surface", "nu_pin", "nu_pin", 0.3, 1.0, -1.0, 0.5, doc="pin Poisson ratio"),
+    _f("surface", "E_bushing_GPa", "E_bushing", 115.0, 1e9, 0.0, unit="GPa", doc="bushing Young's modulus"),
+    _f("surface", "nu_bushing", "nu_bushing", 0.33, 1.0, -1.0, 0.5, doc="bushing Poisson ratio"),
+    _f("surface", "composite_modulus_GPa", "composite_modulus", None, 1e9, 0.0, unit="GPa",
+       doc="composite modulus E' (default: from the moduli and Poisson ratios, DESIGN 3.3)"),
+    _f("surface", "asperity_friction", "asperity_friction", 0.1, 1.0, 0.0, closed=True,
+       doc="asperity friction coefficient"),
+    # [solver]
+    _f("solver", "step_deg", "step", 0.5, DEG, 0.0, 10.0, closed=False, unit="deg",
+       doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
+)
+
+SECTIONS = ("engine", "gas", "small_end", "oil", "surface", "solver")
+
+
+def _specs(section: str) -> tuple[FieldSpec, ...]:
+    return tuple(spec for spec in FIELDS if spec.section == section)
+
+
+def _spec(section: str, attribute: str) -> FieldSpec:
+    return next(spec for spec in FIELDS if spec.section == section and spec.attribute == attribute)
+
+
+def _default(section: str, attribute: str) -> Any:
+    spec = _spec(section, attribute)
+    if spec.default is None or spec.kind is not float:
+        return spec.default
+    return spec.default * spec.scale
+
+
+def _check_section(instance: Any, section: str) -> None:
+    for spec in _specs(section):
+        value = getattr(instance, spec.attribute)
+        if spec.kind is float and value is not None:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a number)")
+        spec.check(value)
+
+
+def _field(section: str, attribute: str):
+    return dataclasses.field(default=_default(section, attribute))
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Engine:
+    """Crank-rod-piston geometry, masses and speed (SI). See FIELDS for the meaning of each."""
+
+    speed: float = _field("engine", "speed")  # rad/s
+    speed_file: Path | None = None  # CSV crank_angle_deg, speed_rpm
+    bore: float = _field("engine", "bore")  # m
+    crank_radius: float = _field("engine", "crank_radius")  # m
+    rod_length: float = _field("engine", "rod_length")  # m
+    pin_offset: float = _field("engine", "pin_offset")  # m
+    rod_mass: float = _field("engine", "rod_mass")  # kg
+    rod_inertia: float = _field("engine", "rod_inertia")  # kg m^2
+    rod_cg_from_big_end: float = _field("engine", "rod_cg_from_big_end")  # m
+    piston_mass: float = _field("engine", "piston_mass")  # kg
+    crank_mass: float = _field("engine", "crank_mass")  # kg
+    crank_inertia: float = _field("engine", "crank_inertia")  # kg m^2
+    gravity: bool = True
+
+    def __post_init__(self) -> None:
+        _check_section(self, "engine")
+        limit = self.crank_radius + abs(self.pin_offset)
+        if not self.rod_length > limit:
+            raise out_of_range(
+                "engine.rod_length_mm", f"{self.rod_length * 1e3:g}",
+                f"> crank_radius_mm + |pin_offset_mm| = {limit * 1e3:g}",
+            )
+        if not self.rod_cg_from_big_end <= self.rod_length:
+            raise out_of_range(
+                "engine.rod_cg_from_big_end_mm", f"{self.rod_cg_from_big_end * 1e3:g}",
+                f"[0, rod_length_mm = {self.rod_length * 1e3:g}]",
+            )
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Gas:
+    """Cylinder pressure model (SI; angles in rad, 360 deg = firing TDC)."""
+
+    model: str = "single-zone"  # single-zone | motored | trace | none
+    pressure_file: Path | None = None
+    compression_ratio: float = _field("gas", "compression_ratio")
+    polytropic_exponent: float = _field("gas", "polytropic_exponent")
+    peak_pressure: float | None = _field("gas", "peak_pressure")  # Pa, absolute
+    imep: float | None = None  # Pa
+    combustion_start: float = _field("gas", "combustion_start")  # rad
+    combustion_duration: float = _field("gas", "combustion_duration")  # rad
+    wiebe_a: float = _field("gas", "wiebe_a")
+    wiebe_m: float = _field("gas", "wiebe_m")
+    intake_pressure: float = _field("gas", "intake_pressure")  # Pa, absolute
+    exhaust_pressure: float = _field("gas", "exhaust_pressure")  # Pa, absolute
+    crankcase_pressure: float = _field("gas", "crankcase_pressure")  # Pa, absolute
+
+    def __post_init__(self) -> None:
+        _check_section(self, "gas")
+        if self.model == "trace" and self.pressure_file is None:
+            raise InputError('gas.pressure_file is required with gas.model = "trace"')
+        if self.model != "trace" and self.pressure_file is not None:
+            raise InputError(f'gas.pressure_file is only used with gas.model = "trace" (got "{self.model}")')
+        if self.model == "single-zone" and self.peak_pressure is not None and self.imep is not None:
+            raise InputError("give either gas.peak_pressure_bar or gas.imep_bar, not both")
+        if self.model == "single-zone" and self.peak_pressure is None and self.imep is None:
+            raise InputError("the single-zone model needs gas.peak_pressure_bar or gas.imep_bar")
+        end = self.combustion_start + self.combustion_duration
+        if not end < 3.0 * math.pi:
+            raise out_of_range(
+                "gas.combustion_duration_deg", f"{self.combustion_duration / DEG:g}",
+                f"< {540.0 - self.combustion_start / DEG:g} (combustion must end before 540 deg)",
+            )
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SmallEnd:
+    """Small-end bearing geometry (SI)."""
+
+    pin_radius: float = _field("small_end", "pin_radius")  # m
+    width: float = _field("small_end", "width")  # m
+    clearance: float = _field("small_end", "clearance")  # m, radial
+
+    def __post_init__(self) -> None:
+        _check_section(self, "small_end")
+        if not self.clearance < self.pin_radius:
+            raise out_of_range(
+                "small_end.clearance_um", f"{self.clearance * 1e6:g}",
+                f"< pin_radius = {self.pin_radius * 1e6:g} um",
+            )
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Oil:
+    """Lubricant (SI)."""
+
+    viscosity: float = _field("oil", "viscosity")  # Pa s
+    cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
+
+    def __post_init__(self) -> None:
+        _check_section(self, "oil")
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Surface:
+    """Roughness, asperity contact and elastic constants (SI)."""
+
+    sigma_pin: float = _field("surface", "sigma_pin")  # m, Rq
+    sigma_bushing: float = _field("surface", "sigma_bushing")  # m, Rq
+    peklenik_gamma: float = _field("surface", "peklenik_gamma")
+    eta_beta_sigma: float = _field("surface", "eta_beta_sigma")
+    sigma_over_beta: float = _field("surface", "sigma_over_beta")
+    E_pin: float = _field("surface", "E_pin")  # Pa
+    nu_pin: float = _field("surface", "nu_pin")
+    E_bushing: float = _field("surface", "E_bushing")  # Pa
+    nu_bushing: float = _field("surface", "nu_bushing")
+    composite_modulus: float | None = None  # Pa, E'; None = from the moduli
+    asperity_friction: float = _field("surface", "asperity_friction")
+
+    def __post_init__(self) -> None:
+        _check_section(self, "surface")
+        if not self.sigma > 0.0:
+            raise InputError(
+                "surface.sigma_pin_um and surface.sigma_bushing_um are both 0 "
+                "(allowed: composite roughness > 0)"
+            )
+
+    @property
+    def sigma(self) -> float:
+        """m, composite roughness sqrt(sigma_pin^2 + sigma_bushing^2)."""
+        return math.hypot(self.sigma_pin, self.sigma_bushing)
+
+    @property
+    def effective_modulus(self) -> float:
+        """Pa, E' with 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 unless given (DESIGN 3.3)."""
+        if self.composite_modulus is not None:
+            return self.composite_modulus
+        return 1.0 / ((1.0 - self.nu_pin**2) / self.E_pin + (1.0 - self.nu_bushing**2) / self.E_bushing)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Solver:
+    """Numerical settings. ``options`` keeps the keys that later issues define (not validated here)."""
+
+    step: float = _field("solver", "step")  # rad, output crank-angle step
+    options: Mapping[str, Any] = dataclasses.field(default_factory=lambda: types.MappingProxyType({}))
+
+    def __post_init__(self) -> None:
+        _check_section(self, "solver")
+        count = 4.0 * math.pi / self.step
+        if abs(count - round(count)) > 1e-9 * count:
+            allowed = "(0, 10) with 720 / step_deg an integer"
+            raise out_of_range("solver.step_deg", f"{self.step / DEG:g}", allowed)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Case:
+    """One operating point.
+
+    Attributes:
+        name: case name.
+        directory: the case directory (relative file names are resolved against it; results go to
+            ``directory / "results"``).
+        description: free text.
+        engine, gas, small_end, oil, surface, solver: the sections.
+    """
+
+    name: str
+    directory: Path
+    description: str = ""
+    engine: Engine = dataclasses.field(default_factory=Engine)
+    gas: Gas = dataclasses.field(default_factory=Gas)
+    small_end: SmallEnd = dataclasses.field(default_factory=SmallEnd)
+    oil: Oil = dataclasses.field(default_factory=Oil)
+    surface: Surface = dataclasses.field(default_factory=Surface)
+    solver: Solver = dataclasses.field(default_factory=Solver)
+
+
+_SECTION_CLASSES = {
+    "engine": Engine, "gas": Gas, "small_end": SmallEnd, "oil": Oil, "surface": Surface, "solver": Solver,
+}
+
+
+def _unknown(name: str, known: list[str], where: str) -> InputError:
+    close = difflib.get_close_matches(name, known, n=1)
+    hint = f" (did you mean {close[0]}?)" if close else f" (known: {', '.join(known)})"
+    return InputError(f"{where}: unknown key {name}{hint}")
+
+
+def _convert(spec: FieldSpec, value: Any, directory: Path) -> Any:
+    """TOML value -> SI value, with the type check."""
+    if spec.kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a number)")
+        return float(value) * spec.scale
+    if spec.kind is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"{spec.name} = {value!r} has the wrong type (expected true or false)")
+        return value
+    if not isinstance(value, str):
+        raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a string)")
+    if spec.kind is Path:
+        path = (directory / value).resolve()
+        if not path.is_file():
+            raise InputError(f"{spec.name} = {value!r}: file not found ({path})")
+        return path
+    return value
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case: a directory containing ``case.toml``, or a TOML file.
+
+    Raises:
+        InputError: missing file, TOML syntax error, unknown section or key, wrong type, value out of
+            range, inconsistent values; the message is one line naming ``section.key``.
+    """
+    path = Path(path)
+    file = path / "case.toml" if path.is_dir() else path
+    if not file.is_file():
+        raise InputError(f"case file not found: {file}")
+    try:
+        with file.open("rb") as stream:
+            data = tomllib.load(stream)
+    except tomllib.TOMLDecodeError as err:
+        raise InputError(f"{file}: invalid TOML: {err}") from None
+    except OSError as err:
+        raise InputError(f"{file}: cannot read ({err.strerror})") from None
+    directory = file.parent.resolve()
+    where = str(file)
+
+    top_level = {spec.key: spec for spec in _specs("")}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            if key not in SECTIONS:
+                close = difflib.get_close_matches(key, SECTIONS, n=1)
+                hint = f"did you mean [{close[0]}]?" if close else f"known: {', '.join(SECTIONS)}"
+                raise InputError(f"{where}: unknown section [{key}] ({hint})")
+        elif key not in top_level:
+            raise _unknown(key, list(top_level) + [f"[{s}]" for s in SECTIONS], where)
+
+    values: dict[str, Any] = {}
+    for key, spec in top_level.items():
+        if key in data:
+            values[spec.attribute] = _convert(spec, data[key], directory)
+    values.setdefault("name", directory.name if file.name == "case.toml" else file.stem)
+
+    for section, cls in _SECTION_CLASSES.items():
+        table = data.get(section, {})
+        specs = {spec.key: spec for spec in _specs(section)}
+        arguments: dict[str, Any] = {}
+        extra: dict[str, Any] = {}
+        for key, value in table.items():
+            if key not in specs:
+                if section == "solver":
+                    extra[key] = value
+                    continue
+                raise _unknown(f"{section}.{key}", [f"{section}.{k}" for k in specs], where)
+            arguments[specs[key].attribute] = _convert(specs[key], value, directory)
+        if section == "gas":
+            if "imep" in arguments and "peak_pressure" in arguments:
+                raise InputError("give either gas.peak_pressure_bar or gas.imep_bar, not both")
+            if "imep" in arguments:
+                arguments["peak_pressure"] = None
+            arguments.setdefault("model", "trace" if "pressure_file" in arguments else "single-zone")
+        if section == "solver":
+            arguments["options"] = types.MappingProxyType(extra)
+        values[section] = cls(**arguments)
+    return Case(directory=directory, **values)
+
+
+def case_reference_markdown() -> str:
+    """The case-format table for the README, generated from :data:`FIELDS`."""
+    lines = ["| key | unit | default | allowed | meaning |", "|---|---|---|---|---|"]
+    for spec in FIELDS:
+        if spec.default is None:
+            default = "(none)"
+        elif spec.kind is bool:
+            default = str(spec.default).lower()
+        elif spec.kind is float:
+            default = f"{spec.default:g}"
+        else:
+            default = f'"{spec.default}"'
+        unit = spec.unit or "-"
+        cells = [f"`{spec.name}`", unit, default, spec.allowed(), spec.doc]
+        lines.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
+    lines.append("| `solver.*` (others) | | | | kept unvalidated in `Solver.options` for later issues |")
+    return "\n".join(lines) + "\n"
