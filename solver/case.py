@@ -11,9 +11,9 @@ cylinder, 2000 rpm, single-zone pressure with a 60 bar peak). A case file only n
 from it; ``name`` defaults to the case directory's name. Errors are :class:`InputError` with one line
 that names the field as ``section.key`` and its allowed range.
 
-Sections: ``[engine]``, ``[gas]`` (used by the engine model now), ``[small_end]``, ``[oil]``,
-``[surface]`` (for the lubricated small end, validated now) and ``[solver]`` (``step_deg``; other keys
-are kept unvalidated in ``Solver.options`` for later issues).
+Sections: ``[engine]``, ``[gas]`` (the mechanism and its loads), ``[small_end]``, ``[oil]``,
+``[surface]`` (the lubricated small end) and ``[solver]`` (the coupled run: joint model, mesh,
+tolerances, cycles, outputs). Unknown sections and keys are errors.
 """
 
 from __future__ import annotations
@@ -22,8 +22,6 @@ import dataclasses
 import difflib
 import math
 import tomllib
-import types
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +75,10 @@ class FieldSpec:
             return ", ".join(repr(choice) for choice in self.choices)
         if self.kind is bool:
             return "true, false"
+        if self.kind is int:
+            return f"an integer in [{self.minimum:g}, {self.maximum:g}]"
+        if self.kind is list:
+            return f"a list of numbers in [{self.minimum:g}, {self.maximum:g}]"
         if self.kind is not float:
             return "any" if self.kind is str else "an existing file"
         low, high = self.minimum, self.maximum
@@ -91,6 +93,17 @@ class FieldSpec:
 
     def check(self, si_value: Any) -> None:
         """Raise InputError if the SI value is outside the allowed range."""
+        if self.kind is int:
+            if isinstance(si_value, bool) or not isinstance(si_value, int):
+                raise InputError(f"{self.name} = {si_value!r} has the wrong type (expected an integer)")
+            if not self.minimum <= si_value <= self.maximum:
+                raise out_of_range(self.name, si_value, self.allowed())
+            return
+        if self.kind is list:
+            values = [v / self.scale for v in si_value]
+            if not all(math.isfinite(v) and self.minimum <= v <= self.maximum for v in values):
+                raise out_of_range(self.name, [f"{v:g}" for v in values], self.allowed())
+            return
         if si_value is None or self.kind is not float:
             if self.choices and si_value not in self.choices:
                 raise out_of_range(self.name, repr(si_value), self.allowed())
@@ -176,6 +189,15 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s", doc="dynamic viscosity"),
     _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
        doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
+    FieldSpec("oil", "inlet", "inlet", str, "none", choices=("none", "max-gap", "hole"),
+              doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
+                  "along the line of maximum film thickness) or hole (a supply hole, below)"),
+    _f("oil", "supply_hole_angle_deg", "supply_hole_angle", 0.0, DEG, -360.0, 360.0, unit="deg",
+       doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the small end)"),
+    _f("oil", "supply_hole_diameter_mm", "supply_hole_diameter", 3.0, 1e-3, 0.0, unit="mm",
+       doc="with inlet = hole: hole diameter; < bushing width"),
+    _f("oil", "supply_pressure_bar", "supply_pressure", 0.0, BAR, 0.0, 1000.0, closed=True, unit="bar",
+       doc="with inlet = hole: oil pressure in the hole, gauge"),
     # [surface]
     _f("surface", "sigma_pin_um", "sigma_pin", 0.1, 1e-6, 0.0, closed=True, unit="um",
        doc="pin roughness Rq"),
@@ -191,11 +213,27 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("surface", "nu_bushing", "nu_bushing", 0.33, 1.0, -1.0, 0.5, doc="bushing Poisson ratio"),
     _f("surface", "composite_modulus_GPa", "composite_modulus", None, 1e9, 0.0, unit="GPa",
        doc="composite modulus E' (default: from the moduli and Poisson ratios, DESIGN 3.3)"),
-    _f("surface", "asperity_friction", "asperity_friction", 0.1, 1.0, 0.0, closed=True,
-       doc="asperity friction coefficient"),
+    _f("surface", "asperity_friction", "asperity_friction", 0.1, 1.0, 0.0, 2.0, closed=True,
+       doc="asperity friction coefficient (also the Coulomb coefficient of the dry joint)"),
+    _f("surface", "restitution", "restitution", 0.9, 1.0, 0.0, 1.0, closed=True,
+       doc="coefficient of restitution of the dry (Lankarani-Nikravesh) joint"),
+    _f("surface", "impact_speed_m_s", "impact_speed", 0.1, 1.0, 0.0, unit="m/s",
+       doc="reference impact speed of the dry joint's hysteresis damping"),
     # [solver]
-    _f("solver", "step_deg", "step", 0.5, DEG, 0.0, 10.0, closed=False, unit="deg",
+    _f("solver", "step_deg", "step", 1.0, DEG, 0.0, 10.0, closed=False, unit="deg",
        doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
+    FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
+              doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
+    _f("solver", "mesh_size", "mesh_size", 0.07, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
+    _f("solver", "rtol", "rtol", 1e-5, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
+    FieldSpec("solver", "max_cycles", "max_cycles", int, 6, minimum=1, maximum=100,
+              doc="at most this many 720 deg cycles (the last one is reported)"),
+    _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
+       doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance"),
+    FieldSpec("solver", "field_angles_deg", "field_angles", list, [0.0, 180.0, 360.0, 380.0, 540.0], DEG, 0.0, 720.0,
+              False, doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)"),
+    _f("solver", "slip_regularisation_m_s", "slip_regularisation", 1e-3, 1.0, 0.0, unit="m/s",
+       doc="sliding speed below which asperity and Coulomb friction are smoothed"),
 )
 
 SECTIONS = ("engine", "gas", "small_end", "oil", "surface", "solver")
@@ -321,6 +359,10 @@ class Oil:
 
     viscosity: float = _field("oil", "viscosity")  # Pa s
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
+    inlet: str = "none"
+    supply_hole_angle: float = _field("oil", "supply_hole_angle")  # rad, rod frame
+    supply_hole_diameter: float = _field("oil", "supply_hole_diameter")  # m
+    supply_pressure: float = _field("oil", "supply_pressure")  # Pa, gauge
 
     def __post_init__(self) -> None:
         _check_section(self, "oil")
@@ -341,6 +383,8 @@ class Surface:
     nu_bushing: float = _field("surface", "nu_bushing")
     composite_modulus: float | None = None  # Pa, E'; None = from the moduli
     asperity_friction: float = _field("surface", "asperity_friction")
+    restitution: float = _field("surface", "restitution")
+    impact_speed: float = _field("surface", "impact_speed")  # m/s
 
     def __post_init__(self) -> None:
         _check_section(self, "surface")
@@ -365,10 +409,16 @@ class Surface:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Solver:
-    """Numerical settings. ``options`` keeps the keys that later issues define (not validated here)."""
+    """Numerical settings of the coupled run (SI; angles in rad)."""
 
     step: float = _field("solver", "step")  # rad, output crank-angle step
-    options: Mapping[str, Any] = dataclasses.field(default_factory=lambda: types.MappingProxyType({}))
+    joint: str = "mixed-fem"
+    mesh_size: float = _field("solver", "mesh_size")  # element size / pin radius
+    rtol: float = _field("solver", "rtol")
+    max_cycles: int = 6
+    periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
+    field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad
+    slip_regularisation: float = _field("solver", "slip_regularisation")  # m/s
 
     def __post_init__(self) -> None:
         _check_section(self, "solver")
@@ -422,6 +472,14 @@ def _convert(spec: FieldSpec, value: Any, directory: Path) -> Any:
         if not isinstance(value, bool):
             raise InputError(f"{spec.name} = {value!r} has the wrong type (expected true or false)")
         return value
+    if spec.kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{spec.name} = {value!r} has the wrong type (expected an integer)")
+        return value
+    if spec.kind is list:
+        if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a list of numbers)")
+        return tuple(float(v) * spec.scale for v in value)
     if not isinstance(value, str):
         raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a string)")
     if spec.kind is Path:
@@ -473,12 +531,8 @@ def load_case(path: str | Path) -> Case:
         table = data.get(section, {})
         specs = {spec.key: spec for spec in _specs(section)}
         arguments: dict[str, Any] = {}
-        extra: dict[str, Any] = {}
         for key, value in table.items():
             if key not in specs:
-                if section == "solver":
-                    extra[key] = value
-                    continue
                 raise _unknown(f"{section}.{key}", [f"{section}.{k}" for k in specs], where)
             arguments[specs[key].attribute] = _convert(specs[key], value, directory)
         if section == "gas":
@@ -487,8 +541,6 @@ def load_case(path: str | Path) -> Case:
             if "imep" in arguments:
                 arguments["peak_pressure"] = None
             arguments.setdefault("model", "trace" if "pressure_file" in arguments else "single-zone")
-        if section == "solver":
-            arguments["options"] = types.MappingProxyType(extra)
         values[section] = cls(**arguments)
     return Case(directory=directory, **values)
 
@@ -503,10 +555,13 @@ def case_reference_markdown() -> str:
             default = str(spec.default).lower()
         elif spec.kind is float:
             default = f"{spec.default:g}"
+        elif spec.kind is list:
+            default = "[" + ", ".join(f"{v:g}" for v in spec.default) + "]"
+        elif spec.kind is int:
+            default = str(spec.default)
         else:
             default = f'"{spec.default}"'
         unit = spec.unit or "-"
         cells = [f"`{spec.name}`", unit, default, spec.allowed(), spec.doc]
         lines.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
-    lines.append("| `solver.*` (others) | | | | kept unvalidated in `Solver.options` for later issues |")
     return "\n".join(lines) + "\n"

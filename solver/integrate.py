@@ -291,6 +291,8 @@ class ESDIRK32:
         f1 = self.system.rhs(self.t + h0, self.y + h0 * self.f)
         d2 = self._norm(f1 - self.f, self.y) / h0
         h1 = max(1e-6, h0 * 1e-3) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / 4.0)
+        if not np.isfinite(h1):  # the trial evaluation failed (e.g. a film solve): start small
+            h1 = h0
         return min(100.0 * h0, h1, self.max_step)
 
     def _stage(self, t: float, base: np.ndarray, guess: np.ndarray, h: float):
@@ -332,7 +334,7 @@ class ESDIRK32:
         self._constraint_part = self.system.constraint_derivative(*self._anchor)
         rejected = False
         while True:
-            if h < 10.0 * np.abs(np.nextafter(t, np.inf) - t):
+            if not h >= 10.0 * np.abs(np.nextafter(t, np.inf) - t):  # also catches NaN
                 self.status = "failed"
                 return f"step size {h:.3g} s below the minimum (Newton failures or error test)"
             stages = [f0]

@@ -58,7 +58,7 @@ def test_the_reference_case_directory_is_the_default_case():
     assert case.name == "reference-2000rpm"
     for section in ("engine", "gas", "small_end", "oil", "surface"):
         assert getattr(case, section) == type(getattr(case, section))(), section
-    assert case.solver.step == pytest.approx(math.radians(0.5)) and dict(case.solver.options) == {}
+    assert case.solver.step == pytest.approx(math.radians(1.0)) and case.solver.joint == "mixed-fem"
 
 
 def test_units_are_converted_once(tmp_path):
@@ -80,7 +80,9 @@ def test_units_are_converted_once(tmp_path):
         composite_modulus_GPa = 120
         [solver]
         step_deg = 0.25
-        future_option = "kept"
+        joint = "short-bearing"
+        max_cycles = 3
+        field_angles_deg = [0, 375.5]
     """))
     assert case.name == "units"
     assert case.engine.speed == pytest.approx(100.0 * math.pi)
@@ -92,7 +94,8 @@ def test_units_are_converted_once(tmp_path):
     assert case.surface.E_pin == pytest.approx(200e9)
     assert case.surface.effective_modulus == pytest.approx(120e9)
     assert case.solver.step == pytest.approx(math.radians(0.25))
-    assert case.solver.options == {"future_option": "kept"}
+    assert case.solver.joint == "short-bearing" and case.solver.max_cycles == 3
+    assert case.solver.field_angles == pytest.approx((0.0, math.radians(375.5)))
 
 
 def test_a_toml_file_can_be_given_instead_of_a_directory(tmp_path):
@@ -149,6 +152,13 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ("[surface]\nnu_pin = 0.5\n", r"^surface.nu_pin = 0.5 is out of range \(allowed: \(-1, 0.5\)\)$"),
         ("[oil]\nviscosity_Pa_s = -0.01\n", r"^oil.viscosity_Pa_s = -0.01 is out of range \(allowed: > 0\)$"),
         ("[solver]\nstep_deg = 0.7\n", r"^solver.step_deg = 0.7 is out of range"),
+        ("[solver]\njoint = \"glue\"\n", r"^solver.joint = 'glue' is out of range \(allowed: 'mixed-fem'"),
+        ("[solver]\nmax_cycles = 2.5\n", r"^solver.max_cycles = 2.5 has the wrong type \(expected an integer\)$"),
+        ("[solver]\nmax_cycles = 0\n", r"^solver.max_cycles = 0 is out of range \(allowed: an integer in \[1, 100\]\)$"),
+        ("[solver]\nfield_angles_deg = [10, 800]\n", r"^solver.field_angles_deg = .* is out of range"),
+        ("[solver]\nfield_angles_deg = \"all\"\n", r"^solver.field_angles_deg = 'all' has the wrong type"),
+        ("[solver]\nfuture_option = 1\n", r"unknown key solver.future_option"),
+        ("[oil]\ninlet = \"groove\"\n", r"^oil.inlet = 'groove' is out of range"),
         ("[engine\nbore_mm = 86\n", r"invalid TOML"),
     ],
 )
@@ -175,7 +185,7 @@ def test_dataclasses_validate_when_built_in_python():
         SmallEnd(width=0.0)
     with pytest.raises(InputError, match=r"gas.imep_bar"):
         Gas(peak_pressure=None)
-    assert Solver().step == pytest.approx(math.radians(0.5))
+    assert Solver().step == pytest.approx(math.radians(1.0))
     assert Surface().composite_modulus is None
     assert Case(name="x", directory=Path(".")).engine == Engine()
 
