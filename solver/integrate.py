@@ -88,6 +88,7 @@ class Trajectory:
     n_output_evaluations: int
     n_lu: int
     wall_time: float
+    next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
 
 
 class _System:
@@ -524,4 +525,5 @@ def integrate(
         n_output_evaluations=output_evaluations[0],
         n_lu=int(getattr(solver, "nlu", 0)),
         wall_time=time.perf_counter() - start,
+        next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
     )
