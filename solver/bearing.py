@@ -44,6 +44,7 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from dolfinx.mesh import meshtags
+from ufl.algorithms import expand_derivatives
 
 from solver import film
 from solver.cavitation import CavitatingSolver
@@ -275,12 +276,21 @@ class FilmModel:
         self._output_forms = {k: fem.form(e * dx) for k, (e, _, _) in self._outputs.items()
                               if k not in self._force_vectors}
         variables = list(g.variables().values())
-        # Jacobian pieces: dr/dtheta at fixed P; explicit dJ/dtheta; dJ/dP as vectors.
+        # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
+        # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
         self._dr_forms = [fem.form(ufl.diff(residual, var) * dx) for var in variables]
-        self._dJ_explicit = {k: [fem.form(ufl.diff(e, var) * dx) for var in variables]
-                             for k, (e, _, _) in self._outputs.items() if k not in self._force_vectors}
-        self._dJ_dP = {k: fem.form(ufl.derivative(e * dx, P, v)) for k, (e, _, _) in self._outputs.items()
-                       if not k.startswith("asperity") and k not in self._force_vectors}
+        self._row_explicit: list[tuple[int, int, object]] = []
+        self._row_gradient: dict[int, object] = {}
+        for i, row in enumerate(_JACOBIAN_ROWS):
+            members = [(k, e, scale) for k, (e, scale, r) in self._outputs.items() if r == row]
+            combined = sum(scale * e for k, e, scale in members if k not in self._force_vectors)
+            if isinstance(combined, int):  # no member left (smooth film: hydrodynamic forces only)
+                continue
+            for j, var in enumerate(variables):
+                if not _is_zero(ufl.diff(combined, var)):
+                    self._row_explicit.append((i, j, fem.form(ufl.diff(combined, var) * dx)))
+            if any(k.startswith("viscous") for k, _, _ in members):  # the only outputs with dE/dP != 0
+                self._row_gradient[i] = fem.form(ufl.derivative(combined * dx, P, v))
         # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
         self._edge_indicator = fem.Function(self.V)
         edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
@@ -414,19 +424,16 @@ class FilmModel:
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
         n_in = len(self._dr_forms)
         J = np.zeros((4, n_in))
-        for name, (_, scale, row) in self._outputs.items():
-            i = _JACOBIAN_ROWS.index(row)
-            grad = self._force_vectors.get(name)
-            owned = grad is None and name in self._dJ_dP
-            if owned:
-                grad = fem_petsc.assemble_vector(self._dJ_dP[name])
+        for i, j, form in self._row_explicit:
+            J[i, j] += self._assemble(form)
+        for i, row in enumerate(_JACOBIAN_ROWS):
+            for name, (_, scale, r) in self._outputs.items():
+                if r == row and name in self._force_vectors:
+                    J[i] += scale * np.array([self._force_vectors[name].dot(d) for d in dP])
+            if i in self._row_gradient:
+                grad = fem_petsc.assemble_vector(self._row_gradient[i])
                 grad.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            for j in range(n_in):
-                value = self._assemble(self._dJ_explicit[name][j]) if name in self._dJ_explicit else 0.0
-                if grad is not None:
-                    value += grad.dot(dP[j])
-                J[i, j] += value * scale
-            if owned:
+                J[i] += np.array([grad.dot(d) for d in dP])
                 grad.destroy()
         for vec in dr + dP:
             vec.destroy()
@@ -477,6 +484,14 @@ class FilmModel:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _is_zero(expression) -> bool:
+    """True when a UFL derivative is identically zero (such forms are not assembled)."""
+    try:
+        return isinstance(expand_derivatives(expression), ufl.constantvalue.Zero)
+    except Exception:  # noqa: BLE001 - UFL cannot always simplify; then assume non-zero
+        return False
 
 
 def _rotation(angle: float) -> np.ndarray:
