@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rpm", type=float, default=None,
                         help="constant crank speed in rpm (replaces engine.speed_rpm and engine.speed_file)")
     parser.add_argument("--step-deg", type=float, default=None,
-                        help="crank-angle step of the outputs in degrees (default: solver.step_deg, 0.5)")
+                        help="crank-angle step of the outputs in degrees (default: solver.step_deg)")
     parser.add_argument("--integrator", choices=("kinematic", "explicit", "implicit"), default="kinematic",
                         help="kinematic: exact constraint solution per crank angle (default); "
                              "explicit/implicit: error-controlled time integration (RK45 / ESDIRK32)")
