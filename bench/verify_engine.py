@@ -1,0 +1,108 @@
+"""Verification study of the coupled engine (too long for CI; its table goes into the README).
+
+    .venv/bin/python3 bench/verify_engine.py [--quick]
+
+Runs the reference case with the mixed finite-element film at a base resolution and refined
+variants, and physical variants, each until periodic (at most 3 cycles), and prints:
+
+- periodicity: cycles needed and the last cycle-to-cycle change of min h_min;
+- mesh and time-step convergence: the cycle minimum of h_min and the cycle-mean friction power of
+  each refinement against the base (target: changes < 2 %);
+- trends: higher viscosity -> larger minimum film and smaller asperity load; rougher surfaces ->
+  larger asperity load;
+- the energy balance of the last cycle (crank + gas work - change of mechanical energy vs the energy
+  dissipated in the joint).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import tempfile
+from pathlib import Path
+
+from mpi4py import MPI
+
+import xarray as xr
+from scipy.integrate import simpson
+
+from solver.simulation import run_case
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def make_case(work: Path, name: str, solver: dict, extra: str = "") -> Path:
+    case = work / name
+    case.mkdir()
+    head = (ROOT / "cases" / "reference-2000rpm" / "case.toml").read_text().split("[solver]")[0]
+    body = "\n".join(f"{k} = {v}" for k, v in solver.items())
+    (case / "case.toml").write_text(head.replace('name = "reference-2000rpm"', f'name = "{name}"') + extra
+                                    + "\n[solver]\n" + body + "\n")
+    return case
+
+
+def metrics(path: Path) -> dict[str, float]:
+    with xr.open_dataset(path) as ds:
+        t = ds.time.values
+        work = simpson(ds.input_power.values, x=t)
+        change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0])
+        dissipated = simpson(ds.dissipated_power.values, x=t)
+        return {"h_min_min": float(ds.h_min.min()), "friction_power_mean": float(ds.friction_power.mean()),
+                "F_asperity_max": float(ds.F_asperity.max()), "p_max_max": float(ds.p_max.max()),
+                "cycles": int(ds.attrs["cycles"]), "periodic": ds.attrs["periodic"], "wall": float(ds.attrs["wall_time_s"]),
+                "energy_error": (work - change - dissipated) / dissipated, "dissipated_J": dissipated}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base-mesh", type=float, default=0.15)
+    parser.add_argument("--base-step", type=float, default=5.0)
+    parser.add_argument("--keep", action="store_true")
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="verify-engine-"))
+    base = {"joint": '"mixed-fem"', "max_cycles": 3, "mesh_size": args.base_mesh, "step_deg": args.base_step,
+            "rtol": 1e-5, "field_angles_deg": "[380]"}
+    variants = {
+        "base": (base, ""),
+        "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, ""),
+        "output step / 2": ({**base, "step_deg": args.base_step / 2}, ""),
+        "rtol / 10": ({**base, "rtol": 1e-6}, ""),
+        "viscosity x 2": (base, "[oil]\nviscosity_Pa_s = 0.020\n"),
+        "roughness x 1.5": (base, "[surface]\nsigma_pin_um = 0.15\nsigma_bushing_um = 0.45\n"),
+    }
+    rows = {}
+    for label, (solver, extra) in variants.items():
+        name = label.replace(" ", "").replace("/", "-").replace(".", "p")
+        case = make_case(work, name, solver)
+        if extra:  # sections must come before [solver]; rewrite the file with the extra section merged
+            text = (case / "case.toml").read_text()
+            section, body = extra.split("\n", 1)
+            key = body.split("=")[0].strip()
+            lines = [line for line in text.splitlines() if not line.strip().startswith(key + " ")]
+            text = "\n".join(lines).replace(section + "\n", section + "\n" + body, 1)
+            (case / "case.toml").write_text(text)
+        summary = run_case(case, MPI.COMM_SELF, progress=True)
+        rows[label] = metrics(summary.results)
+        print(label, rows[label], flush=True)
+    b = rows["base"]
+    print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol 1e-5 (cycles to periodic: {b['cycles']}, "
+          f"periodic: {b['periodic']})")
+    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | max asperity force [N] | "
+          "max p_max [MPa] | energy balance error | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for label, r in rows.items():
+        dh = (r["h_min_min"] / b["h_min_min"] - 1) * 100
+        dp = (r["friction_power_mean"] / b["friction_power_mean"] - 1) * 100
+        print(f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
+              f"{dp:+.2f} % | {r['F_asperity_max']:.0f} | {r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.2f} % | "
+              f"{r['wall']:.0f} |")
+    v, s = rows["viscosity x 2"], rows["roughness x 1.5"]
+    print(f"\ntrend viscosity x 2: min h_min {'larger' if v['h_min_min'] > b['h_min_min'] else 'NOT larger'}, "
+          f"max asperity force {'smaller' if v['F_asperity_max'] < b['F_asperity_max'] else 'NOT smaller'}")
+    print(f"trend roughness x 1.5: max asperity force {'larger' if s['F_asperity_max'] > b['F_asperity_max'] else 'NOT larger'}")
+    if not args.keep:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
