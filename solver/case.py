@@ -220,13 +220,13 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("surface", "impact_speed_m_s", "impact_speed", 0.1, 1.0, 0.0, unit="m/s",
        doc="reference impact speed of the dry joint's hysteresis damping"),
     # [solver]
-    _f("solver", "step_deg", "step", 1.0, DEG, 0.0, 10.0, closed=False, unit="deg",
+    _f("solver", "step_deg", "step", 2.0, DEG, 0.0, 10.0, closed=False, unit="deg",
        doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
     FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
               doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
-    _f("solver", "mesh_size", "mesh_size", 0.07, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
+    _f("solver", "mesh_size", "mesh_size", 0.1, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
     _f("solver", "rtol", "rtol", 1e-5, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
-    FieldSpec("solver", "max_cycles", "max_cycles", int, 6, minimum=1, maximum=100,
+    FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
               doc="at most this many 720 deg cycles (the last one is reported)"),
     _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
        doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance"),
@@ -415,7 +415,7 @@ class Solver:
     joint: str = "mixed-fem"
     mesh_size: float = _field("solver", "mesh_size")  # element size / pin radius
     rtol: float = _field("solver", "rtol")
-    max_cycles: int = 6
+    max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
     field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad
     slip_regularisation: float = _field("solver", "slip_regularisation")  # m/s

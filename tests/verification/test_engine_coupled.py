@@ -45,7 +45,8 @@ def make_case(directory: Path, solver: str, extra: str = "") -> Path:
 @pytest.fixture(scope="module")
 def short_bearing_run(tmp_path_factory):
     """Two cycles of the reference engine with the short-bearing small end, 1 deg outputs, rtol 1e-8."""
-    case = make_case(tmp_path_factory.mktemp("sb") / "short", 'joint = "short-bearing"\nmax_cycles = 2\nrtol = 1e-8\n')
+    case = make_case(tmp_path_factory.mktemp("sb") / "short",
+                     'joint = "short-bearing"\nmax_cycles = 2\nrtol = 1e-8\nstep_deg = 1\n')
     summary = run_case(case, MPI.COMM_SELF)
     with xr.open_dataset(summary.results) as ds:
         yield summary, ds.load()
