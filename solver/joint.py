@@ -176,6 +176,9 @@ class DryContactJoint(ClearanceJoint):
 
     ``v_impact`` is a fixed reference impact speed (the law must be memoryless here), and the friction
     is smoothed below ``v_reg``. Torques: the friction force times R on the journal and on the bushing.
+    With the Hertz point-contact stiffness of ``hertz_line_stiffness`` (the usual choice for revolute
+    clearance joints) a pin is soft: under the firing load of the reference engine the penetration
+    reaches ~2 clearances (h_min < 0 in the results means penetration).
     """
 
     radius: float  # m

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -42,7 +43,8 @@ def run(args, comm) -> int:
             "friction_power_mean_W": summary.friction_power_mean, "cycles": summary.cycles,
             "periodic": summary.periodic, "wall_time_s": summary.wall_time,
         }
-        if args.json:
+        report = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in report.items()}
+        if args.json:  # NaN (e.g. no film with --joint ideal) is null: strict JSON
             print(json.dumps(report))
         else:
             for key, value in report.items():

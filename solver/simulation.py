@@ -281,7 +281,7 @@ class _Run:
         return out
 
     # -- film fields --------------------------------------------------------------------------------
-    def write_fields(self, directory: Path, cycle: CycleOutput, comm: MPI.Comm) -> list[Path]:
+    def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
         """XDMF pressure / film thickness / asperity pressure at the case's field angles (mixed-fem only)."""
         from solver import io
         from solver.bearing import Kinematics
@@ -346,17 +346,17 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
         out_dir.mkdir(parents=True, exist_ok=True)
     comm.Barrier()
     handler = results_io.attach_log(out_dir / "run.log", comm)
+    run = None
     try:
         log.info("case %s: joint %s, solver %s", case.name, joint, __version__)
         ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))
+        run = _Run(case, comm, joint)
         if joint == "ideal":  # kinematically determined: the ideal cycle is the answer
-            run = _Run(case, comm, joint)
             cycles_done, periodic = 1, True
             cycle = _ideal_cycle_output(ideal)
         else:
-            run = _Run(case, comm, joint)
             cycle, cycles_done, periodic = _cycles(run, out_dir, progress, resume)
-        fields = run.write_fields(out_dir, cycle, comm) if run.model is not None else []
+        fields = run.write_fields(out_dir, cycle)
         wall = time.perf_counter() - start
         summary = results_io.write_results(out_dir, case, run, cycle, ideal, joint=joint, cycles=cycles_done,
                                            periodic=periodic, wall_time=wall, fields=fields, comm=comm)
@@ -369,8 +369,8 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
         return summary
     finally:
         results_io.detach_log(handler)
-        if run_model := getattr(locals().get("run"), "model", None):
-            run_model.close()
+        if run is not None and run.model is not None:
+            run.model.close()
 
 
 def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
