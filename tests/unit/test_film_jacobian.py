@@ -18,6 +18,19 @@ def _outputs(result):
     return np.array([*result.force, result.torque_journal, result.torque_bushing])
 
 
+def _finite_differences(model, base, steps):
+    """Central differences of the outputs of full VI solves in (ecc, ecc_rate, omega_rel)."""
+    J_fd = np.zeros((4, 5))
+    for j in range(5):
+        d = np.zeros(5)
+        d[j] = steps[j]
+        plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
+                                  (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
+                                  base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
+        J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+    return J_fd
+
+
 @pytest.mark.serial
 @pytest.mark.parametrize("inlet", ["max-gap", "none"])
 def test_jacobian_matches_finite_differences(inlet):
@@ -32,14 +45,7 @@ def test_jacobian_matches_finite_differences(inlet):
     with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.08) as model:
         model.solve(base)
         J = model.jacobian().matrix
-        J_fd = np.zeros((4, 5))
-        for j in range(5):
-            d = np.zeros(5)
-            d[j] = steps[j]
-            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-            J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+        J_fd = _finite_differences(model, base, steps)
     for row in range(4):  # forces and torques have different units: compare row by row
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * scale, (row, J[row], J_fd[row])
@@ -76,14 +82,7 @@ def test_mixed_jacobian_matches_finite_differences():
         r0 = model.solve(base)
         assert r0.asperity_load > 0
         J = model.jacobian().matrix
-        J_fd = np.zeros((4, 5))
-        for j in range(5):
-            d = np.zeros(5)
-            d[j] = steps[j]
-            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-            J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+        J_fd = _finite_differences(model, base, steps)
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
