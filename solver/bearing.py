@@ -137,7 +137,7 @@ class FilmResult:
     h_min: float  # m, minimum film thickness
     torque_journal: float  # N m, friction torque on the journal (viscous + asperity)
     torque_bushing: float  # N m, friction torque on the bushing (viscous + asperity)
-    asperity_torque_journal: float  # N m, asperity friction part of torque_journal
+    asperity_torque_journal: float  # N m, asperity part of torque_journal (friction + moment of the normal forces)
     asperity_normal_force: float  # N, integral of p_c over the surface (what asperity friction acts on)
     contact_area_ratio: float  # real contact area / nominal bearing area
     asperity_p_max: float  # Pa, peak asperity contact pressure (at h_min)
@@ -262,7 +262,11 @@ class FilmModel:
             self._outputs.update({
                 "asperity_x": (-P_c * g.normal[0], s.force, "force_x"),
                 "asperity_y": (-P_c * g.normal[1], s.force, "force_y"),
-                "asperity_torque_journal": (tau_c, torque_scale, "torque_journal"),
+                # the contact normals pass through the bushing centre, so on the journal they have the
+                # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
+                "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
+                                            * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
+                                            torque_scale, "torque_journal"),
                 "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing"),
             })
             self._extra_integrands = {"contact_area": area, "asperity_normal": P_c}
