@@ -114,8 +114,10 @@ def test_film_joint_approaches_short_bearing():
 @pytest.mark.serial
 def test_film_moment_balance():
     """The massless film carries no net moment: T_journal + T_bushing + e' x F' = 0 (angular momentum
-    balance; it makes the joint's dissipation independent of the frame's rotation), with rough
-    surfaces, asperity contact and friction and squeeze too. The torques use the integration by parts
+    balance; it makes the joint's dissipation independent of the frame's rotation), with asperity
+    contact and friction and squeeze too (smooth flow factors: Patir & Cheng's averaged shear stresses
+    with Phi_fp != 1 do not satisfy it exactly, which the joint's energy bookkeeping allows for). The
+    torques use the integration by parts
     of the pressure term (integral of H dP/dtheta against P dH/dtheta), exact in the continuum and
     O(h^2) for P1 with a non-polynomial H: 1e-4 of |T_journal| (measured <= 1e-5)."""
     from solver.bearing import Bearing, FilmModel
@@ -123,10 +125,10 @@ def test_film_moment_balance():
 
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
     with FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none"), MPI.COMM_SELF,
-                   omega_ref=300.0, mesh_size=0.1, roughness=surface.roughness(), contact=surface.contact(),
-                   slip_regularisation=1e-6) as model:
+                   omega_ref=300.0, mesh_size=0.1, contact=surface.contact(), slip_regularisation=1e-6) as model:
         film = FilmJoint(model)
         for z in [(0.5 * C, 0.0, 0.0, 0.0, 300.0), (0.6 * C, -0.75 * C, 0.2 * C * 300, 0.1 * C * 300, -200.0)]:
             f = film.forces(np.array(z[:2]), np.array(z[2:4]), z[4], 0.0)
+            assert film.last_result.asperity_load > 0 or z[0] == 0.5 * C
             e_cross_F = z[0] * f.force[1] - z[1] * f.force[0]
             assert abs(f.journal_torque + f.bushing_torque + e_cross_F) <= 1e-4 * abs(f.journal_torque)
