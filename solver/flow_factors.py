@@ -159,7 +159,8 @@ def shear_stress_phi_f(Hs: Any, mod: Any = np) -> Any:
 def _shear_stress_fs_tabulated(gamma: float, Hs: Any, mod: Any) -> Any:
     A3, a4, a5, a6 = SHEAR_STRESS[gamma]
     H = _clamp(Hs, H_MIN, mod)
-    fit = A3 * H**a4 * mod.exp(-a5 * H + a6 * H**2)
+    H_fit = np.minimum(H, 7.0) if mod is np else mod.min_value(H, 7.0)  # the fit grows again beyond 7
+    fit = A3 * H_fit**a4 * mod.exp(-a5 * H_fit + a6 * H_fit**2)
     if mod is np:
         return np.where(H < 7.0, fit, 0.0)
     return mod.conditional(mod.lt(H, 7.0), fit, 0.0)
