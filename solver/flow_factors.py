@@ -107,7 +107,8 @@ def pressure_flow(Hs: Any, gamma: float = 1.0, mod: Any = np) -> Any:
 def _shear_flow_tabulated(gamma: float, Hs: Any, mod: Any) -> Any:
     A1, a1, a2, a3, A2 = SHEAR_FLOW[gamma]
     H = _clamp(Hs, H_MIN, mod)
-    low = A1 * H**a1 * mod.exp(-a2 * H + a3 * H**2)
+    H_low = np.minimum(H, 5.0) if mod is np else mod.min_value(H, 5.0)  # each fit only inside its range
+    low = A1 * H_low**a1 * mod.exp(-a2 * H_low + a3 * H_low**2)
     high = A2 * mod.exp(-0.25 * H)
     return _where(_lt(H, 5.0, mod), low, high, mod) if mod is not np else np.where(H <= 5.0, low, high)
 
@@ -120,7 +121,8 @@ def shear_flow_function(Hs: Any, gamma: float = 1.0, mod: Any = np) -> Any:
 def contact_factor(Hs: Any, mod: Any = np) -> Any:
     """Wu & Zheng contact factor phi_c = exp(-0.6912 + 0.782 H - 0.304 H^2 + 0.0401 H^3), H < 3; else 1."""
     H = _clamp(Hs, 0.0, mod)
-    fit = mod.exp(-0.6912 + 0.782 * H - 0.304 * H**2 + 0.0401 * H**3)
+    H_fit = np.minimum(H, CONTACT_FACTOR_H) if mod is np else mod.min_value(H, CONTACT_FACTOR_H)
+    fit = mod.exp(-0.6912 + 0.782 * H_fit - 0.304 * H_fit**2 + 0.0401 * H_fit**3)
     if mod is np:
         return np.where(H < CONTACT_FACTOR_H, fit, 1.0)
     return mod.conditional(mod.lt(H, CONTACT_FACTOR_H), fit, 1.0)
