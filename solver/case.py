@@ -225,7 +225,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
               doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
     _f("solver", "mesh_size", "mesh_size", 0.1, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
-    _f("solver", "rtol", "rtol", 1e-5, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
+    _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
               doc="at most this many 720 deg cycles (the last one is reported)"),
     _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
