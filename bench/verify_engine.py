@@ -58,6 +58,7 @@ def main() -> None:
     parser.add_argument("--base-mesh", type=float, default=0.15)
     parser.add_argument("--base-step", type=float, default=5.0)
     parser.add_argument("--keep", action="store_true")
+    parser.add_argument("--only", nargs="*", default=None, help="run only these variants (and the base)")
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="verify-engine-"))
     base = {"joint": '"mixed-fem"', "max_cycles": 3, "mesh_size": args.base_mesh, "step_deg": args.base_step,
@@ -71,14 +72,16 @@ def main() -> None:
         "roughness x 1.5": (base, "[surface]\nsigma_pin_um = 0.15\nsigma_bushing_um = 0.45\n"),
     }
     rows = {}
+    if args.only:
+        variants = {k: v for k, v in variants.items() if k == "base" or k in args.only}
     for label, (solver, extra) in variants.items():
         name = label.replace(" ", "").replace("/", "-").replace(".", "p")
         case = make_case(work, name, solver)
         if extra:  # sections must come before [solver]; rewrite the file with the extra section merged
             text = (case / "case.toml").read_text()
             section, body = extra.split("\n", 1)
-            key = body.split("=")[0].strip()
-            lines = [line for line in text.splitlines() if not line.strip().startswith(key + " ")]
+            keys = [line.split("=")[0].strip() for line in body.splitlines() if "=" in line]
+            lines = [line for line in text.splitlines() if line.split("=")[0].strip() not in keys]
             text = "\n".join(lines).replace(section + "\n", section + "\n" + body, 1)
             (case / "case.toml").write_text(text)
         summary = run_case(case, MPI.COMM_SELF, progress=True)
