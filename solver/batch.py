@@ -182,17 +182,10 @@ def case_toml_sha256(case_dir: Path) -> str | None:
 
 
 def results_complete(path: Path) -> bool:
-    """True for a results file of a finished run: it opens with xarray and ``status == "complete"``."""
-    import xarray as xr
+    """True for a results file of a finished run (the data contract's test, solver.results)."""
+    from solver.results import is_complete
 
-    path = Path(path)
-    if not path.is_file():
-        return False
-    try:
-        with xr.open_dataset(path) as ds:
-            return ds.attrs.get("status") == "complete"
-    except Exception:  # noqa: BLE001 - any unreadable file is an unfinished run
-        return False
+    return is_complete(path)
 
 
 def read_case_status(case_dir: Path) -> dict | None:

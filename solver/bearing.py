@@ -178,10 +178,6 @@ class FilmJacobian:
     def force_ecc(self) -> np.ndarray:
         return self.matrix[:2, :2]
 
-    @property
-    def force_rate(self) -> np.ndarray:
-        return self.matrix[:2, 2:4]
-
 
 # Rows of the Jacobian and how the model's functionals add up to them.
 _JACOBIAN_ROWS = ("force_x", "force_y", "torque_journal", "torque_bushing")

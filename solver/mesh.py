@@ -157,9 +157,4 @@ def film_mesh(spec: FilmMeshSpec, comm: MPI.Comm):
     return mesh, cell_tags, facet_tags
 
 
-def node_count_estimate(spec: FilmMeshSpec) -> int:
-    """Rough number of P1 nodes for an element size (for choosing a size): area / (sqrt(3)/2 h^2)."""
-    return int(2 * math.pi * spec.width / (math.sqrt(3) / 2 * spec.element_size**2))
-
-
-__all__ = ["TAGS", "FilmMeshSpec", "SupplyHole", "film_mesh", "node_count_estimate"]
+__all__ = ["TAGS", "FilmMeshSpec", "SupplyHole", "film_mesh"]

@@ -165,13 +165,16 @@ def _cycle_mean(angles: np.ndarray, values: np.ndarray) -> float:
 
 
 def is_complete(path: Path) -> bool:
-    """True for a results file of a finished run (opens, status = complete)."""
+    """True for a results file of a finished run: it opens with xarray and ``status == "complete"``."""
     import xarray as xr
 
+    path = Path(path)
+    if not path.is_file():
+        return False
     try:
         with xr.open_dataset(path) as ds:
             return ds.attrs.get("status") == "complete"
-    except (OSError, ValueError, RuntimeError):
+    except Exception:  # noqa: BLE001 - any unreadable file is an unfinished run
         return False
 
 
