@@ -399,6 +399,16 @@ class Surface:
         """m, composite roughness sqrt(sigma_pin^2 + sigma_bushing^2)."""
         return math.hypot(self.sigma_pin, self.sigma_bushing)
 
+    def models(self):
+        """The same data as a solver.surface.Surface, which builds the roughness and contact models."""
+        from solver.surface import Surface as SurfaceModels
+
+        return SurfaceModels(sigma_journal=self.sigma_pin, sigma_bushing=self.sigma_bushing,
+                             peklenik_gamma=self.peklenik_gamma, eta_beta_sigma=self.eta_beta_sigma,
+                             sigma_over_beta=self.sigma_over_beta, E_journal=self.E_pin, nu_journal=self.nu_pin,
+                             E_bushing=self.E_bushing, nu_bushing=self.nu_bushing, E_composite=self.composite_modulus,
+                             asperity_friction=self.asperity_friction)
+
     @property
     def effective_modulus(self) -> float:
         """Pa, E' with 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 unless given (DESIGN 3.3)."""

@@ -99,7 +99,6 @@ def build_joint(case: Case, engine, comm: MPI.Comm, joint: str):
     if joint != "mixed-fem":
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     from solver.bearing import Bearing, FilmModel
-    from solver.surface import Surface
 
     if oil.inlet == "hole" and not oil.supply_hole_diameter < min(se.width, se.pin_radius):
         raise InputError(f"oil.supply_hole_diameter_mm = {oil.supply_hole_diameter * 1e3:g} is out of range "
@@ -110,10 +109,7 @@ def build_joint(case: Case, engine, comm: MPI.Comm, joint: str):
                       supply_hole_angle=oil.supply_hole_angle if oil.inlet == "hole" else None,
                       supply_hole_diameter=oil.supply_hole_diameter if oil.inlet == "hole" else 0.0,
                       inlet="max-gap" if oil.inlet == "max-gap" else "none")
-    surface = Surface(sigma_journal=surf.sigma_pin, sigma_bushing=surf.sigma_bushing, peklenik_gamma=surf.peklenik_gamma,
-                      eta_beta_sigma=surf.eta_beta_sigma, sigma_over_beta=surf.sigma_over_beta, E_journal=surf.E_pin,
-                      nu_journal=surf.nu_pin, E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing,
-                      E_composite=surf.composite_modulus, asperity_friction=surf.asperity_friction)
+    surface = surf.models()
     model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
                       roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=solver.slip_regularisation)
