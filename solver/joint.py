@@ -77,6 +77,12 @@ class FilmJoint(ClearanceJoint):
             return _NAN_FORCES
         if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * (1 - 1e-9):
             return _NAN_FORCES
+        if not jacobian and key != self._key and key in self._cache:
+            # a state solved before (e.g. an output state evaluated again at the start of the next
+            # integration interval): the forces are known, no solve needed
+            r = self._cache[key]
+            self.last_result = r
+            return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
         try:
             if key != self._key:
                 self._result = self.model.solve(Kinematics(key[:2], key[2:4], key[4], 0.0))

@@ -9,7 +9,6 @@ quadrature of its definition, the mean of h/h_T over the gap distribution (35/96
 
 from __future__ import annotations
 
-import math
 
 from mpi4py import MPI
 
