@@ -224,7 +224,7 @@ FIELDS: tuple[FieldSpec, ...] = (
        doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
     FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
               doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
-    _f("solver", "mesh_size", "mesh_size", 0.1, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
+    _f("solver", "mesh_size", "mesh_size", 0.07, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
               doc="at most this many 720 deg cycles (the last one is reported)"),
