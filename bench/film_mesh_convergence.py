@@ -11,6 +11,7 @@ are printed with their deviation from the finest mesh. This is what the choice o
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from mpi4py import MPI
@@ -30,8 +31,8 @@ def main() -> None:
     engine = engine_from_case(case)
     rows = []
     for size in SIZES:
-        case.solver.__dict__["mesh_size"] = size  # frozen dataclass: a study of this one field
-        _, model = build_joint(case, engine, MPI.COMM_SELF, "mixed-fem")
+        refined = dataclasses.replace(case, solver=dataclasses.replace(case.solver, mesh_size=size))
+        _, model = build_joint(refined, engine, MPI.COMM_SELF, "mixed-fem")
         with model:
             r = model.solve(STATE)
             rows.append((size, model.dofs, r.hydro_load, r.asperity_load, r.torque_journal, r.p_max))
