@@ -286,11 +286,6 @@ class ESDIRK32:
         self.t, self.y, self.t_bound = t0, np.array(y0, dtype=float), t_bound
         self.rtol, self.atol, self.max_step = rtol, np.asarray(atol, dtype=float), max_step
         self.newton_tolerance = max(10.0 * np.finfo(float).eps / rtol, min(0.03, rtol**0.5))
-        # full Newton lands far inside its tolerance (quadratic convergence), simplified Newton just
-        # inside it: with a kept Jacobian it aims at a tighter one, so that the stage errors are as
-        # small (energy balance), but accepts the usual one when the iteration stalls at the noise
-        # level of the force evaluations (film solves)
-        self.newton_target = self.newton_tolerance * (self.REUSE_TOLERANCE_FACTOR if jacobian_reuse else 1.0)
         self.f = system.rhs(t0, self.y)
         self._anchor = system.last_evaluation
         self.status = "running" if t_bound > t0 else "finished"
@@ -339,7 +334,12 @@ class ESDIRK32:
         reuse = self.jacobian_reuse and not self._full_newton
         refresh = not reuse or self.jacobian is None
         lu = None
-        target, tolerance = (self.newton_target if reuse else self.newton_tolerance), self.newton_tolerance
+        # full Newton lands far inside its tolerance (quadratic convergence), simplified Newton just
+        # inside it: with a kept Jacobian it aims at a tighter target, so that the stage errors are as
+        # small (energy balance), but accepts the usual tolerance when the iteration stalls at the
+        # noise level of the force evaluations (film solves)
+        tolerance = self.newton_tolerance
+        target = tolerance * (self.REUSE_TOLERANCE_FACTOR if reuse else 1.0)
         increment = np.inf
         # MAX_NEWTON_ITERATIONS in all, plus as many again for refreshes of a kept Jacobian
         for _ in range(self.MAX_NEWTON_ITERATIONS * (2 if reuse else 1)):
