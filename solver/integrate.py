@@ -225,9 +225,13 @@ class ESDIRK32:
     evaluation with Jacobian per iteration, no finite differences of forces. Full Newton matters when a
     stiff joint connects rotating bodies: the stiff direction turns within a step, and a Jacobian
     frozen at the start of the step (scipy's Radau and BDF) then makes Newton diverge unless the
-    step is tiny. Newton starts from the previous step's interpolant extrapolated to the stage time,
-    which keeps it inside its (with stiffness shrinking) region of convergence; with these two
-    measures the step count is nearly independent of the joint stiffness. The cheap constraint part
+    step is tiny. Newton starts the first implicit stage from the previous step's interpolant
+    extrapolated to the stage time, and the other two from the cubic Hermite interpolant between the
+    step start and the converged first stage (an interpolation for stage 2 at c = 0.6, a slight
+    extrapolation for stage 3 at c = 1), which keeps it inside its (with stiffness shrinking) region
+    of convergence; with these measures the step count is nearly independent of the joint stiffness.
+    Far from the solution a full Newton step of a thin film may overshoot once before it contracts, so
+    divergence is declared when the increment grows twice or by ``DIVERGENCE_RATE`` at once. The cheap constraint part
     of the Jacobian is computed once per step.
 
     ``jacobian_reuse=True`` switches to simplified Newton with an adaptive Jacobian: the latest
@@ -269,7 +273,9 @@ class ESDIRK32:
          9247589265047.0 / 10645013368117.0, 2193209047091.0 / 5459859503100.0]
     )
     C = A.sum(axis=1)
-    MAX_NEWTON_ITERATIONS = 8
+    MAX_NEWTON_ITERATIONS = 12
+    #: a full Newton iteration whose increment grows by this factor (or grows twice) diverges
+    DIVERGENCE_RATE = 4.0
     NEWTON_FAILURE_FACTOR = 0.5  # step reduction after a Newton failure
 
     #: simplified Newton: a kept Jacobian is refreshed when an iteration contracts slower than this
@@ -341,6 +347,7 @@ class ESDIRK32:
         tolerance = self.newton_tolerance
         target = tolerance * (self.REUSE_TOLERANCE_FACTOR if reuse else 1.0)
         increment = np.inf
+        grew = False
         # MAX_NEWTON_ITERATIONS in all, plus as many again for refreshes of a kept Jacobian
         for _ in range(self.MAX_NEWTON_ITERATIONS * (2 if reuse else 1)):
             if refresh:
@@ -367,7 +374,11 @@ class ESDIRK32:
                 if rate >= 0.9 and fresh and increment <= tolerance:
                     return Y, lu  # stalled at the noise level, inside the usual tolerance
                 if rate >= 1.0 and fresh:
-                    return None
+                    # far from the solution a full Newton step may overshoot once before it contracts
+                    # (the film force is very nonlinear in a thin film); a second growth is divergence
+                    if grew or rate >= self.DIVERGENCE_RATE:
+                        return None
+                    grew = True
                 if rate > self.REFRESH_RATE and not fresh:
                     # the kept Jacobian is too old: a new one next iteration (from the last good iterate)
                     refresh = True
@@ -394,7 +405,12 @@ class ESDIRK32:
             result = None
             for i in range(1, 4):
                 base = y + h * sum(self.A[i, j] * stages[j] for j in range(i))
-                if self._dense is not None:  # extrapolate the last step's interpolant: Newton starts close
+                if i > 1:
+                    # interpolate (stage 2, c = 0.6) or barely extrapolate (stage 3, c = 1) between the
+                    # step start and the converged first stage (c = 0.87): closer than the last step's
+                    # interpolant, extrapolated a whole step, which can even leave the clearance
+                    guess = _HermiteOutput(t, y, f0, t + self.C[1] * h, first_stage, stages[1])(t + self.C[i] * h)
+                elif self._dense is not None:  # extrapolate the last step's interpolant: Newton starts close
                     guess = self._dense(t + self.C[i] * h)
                 else:
                     guess = base + h * self.GAMMA * stages[-1]
@@ -402,6 +418,8 @@ class ESDIRK32:
                 if result is None:
                     break
                 stages.append((result[0] - base) / (h * self.GAMMA))
+                if i == 1:
+                    first_stage = result[0]
             if result is None:
                 if self.jacobian_reuse and not self._full_newton:
                     self._full_newton = True  # retry the same step with full Newton first
