@@ -43,6 +43,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
+from dolfinx.la import create_petsc_vector
 from dolfinx.mesh import meshtags
 from ufl.algorithms import expand_derivatives
 
@@ -236,67 +237,79 @@ class FilmModel:
     def _build_forms(self) -> None:
         g, P, s = self.geometry, self.P, self.scales
         v, dP = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
-        # The coefficients (H^3, sqrt in theta) would make UFL pick a very high quadrature degree;
-        # they are smooth on an element, so degree 2k is enough: the tables are reproduced to the
-        # same digits as with degree 2k + 4 (bench/) at a fraction of the assembly time.
-        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * self.V.ufl_element().degree()})
+        # The coefficients (H^3, flow factors, sqrt in theta) would make UFL pick a very high
+        # quadrature degree; they are smooth on an element, so degree 2k - 1 (the midpoint rule for
+        # P1) keeps the discretisation error of order h^2: at the engine's hardest state the film
+        # load on the default mesh is 0.2 % from converged (0.8 % with degree 2k), at 2.5 x less
+        # assembly time (bench/film_mesh_convergence.py). The hydrodynamic forces and the viscous
+        # torques take degree 2k: the film's moment balance (T_j + T_b + e x F = 0) rests on an
+        # integration by parts between them that only a more accurate rule keeps to 1e-5.
+        k = self.V.ufl_element().degree()
+        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k - 1})
+        dx_moment = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k})
         residual = film.reynolds_integrand(P, v, g, self.roughness)
         self._a = fem.form(ufl.derivative(residual * dx, P, dP))
         self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         tau_j, tau_b = film.shear_traction_integrands(P, g, self.roughness)
-        # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to)
+        # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, measure)
         self._outputs = {
-            "hydro_x": (-P * g.normal[0], s.force, "force_x"),
-            "hydro_y": (-P * g.normal[1], s.force, "force_y"),
-            "viscous_torque_journal": (tau_j, s.shear_torque, "torque_journal"),
-            "viscous_torque_bushing": (tau_b, s.shear_torque, "torque_bushing"),
+            "hydro_x": (-P * g.normal[0], s.force, "force_x", dx_moment),
+            "hydro_y": (-P * g.normal[1], s.force, "force_y", dx_moment),
+            "viscous_torque_journal": (tau_j, s.shear_torque, "torque_journal", dx_moment),
+            "viscous_torque_bushing": (tau_b, s.shear_torque, "torque_bushing", dx_moment),
         }
+        extra = {}
         if self.contact is not None:
             slip_reg = self.slip_regularisation / s.speed
             P_c, tau_c, area = film.asperity_integrands(g, self.contact, s.pressure, slip_reg)
             torque_scale = s.pressure * self.bearing.radius**3
             self._outputs.update({
-                "asperity_x": (-P_c * g.normal[0], s.force, "force_x"),
-                "asperity_y": (-P_c * g.normal[1], s.force, "force_y"),
+                "asperity_x": (-P_c * g.normal[0], s.force, "force_x", dx),
+                "asperity_y": (-P_c * g.normal[1], s.force, "force_y", dx),
                 # the contact normals pass through the bushing centre, so on the journal they have the
                 # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
                 "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
                                             * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
-                                            torque_scale, "torque_journal"),
-                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing"),
+                                            torque_scale, "torque_journal", dx),
+                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", dx),
             })
-            self._extra_integrands = {"contact_area": area, "asperity_normal": P_c}
-        else:
-            self._extra_integrands = {}
+            extra = {"contact_area": area, "asperity_normal": P_c}
+        self._extra_names = list(extra)
         # Hydrodynamic forces are linear in P with weights independent of the kinematics: g_i . P.
         self._force_vectors = {}
-        for k in ("hydro_x", "hydro_y"):
-            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(self._outputs[k][0] * dx, P, v)))
+        for name in ("hydro_x", "hydro_y"):
+            integrand, _, _, measure = self._outputs[name]
+            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(integrand * measure, P, v)))
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            self._force_vectors[k] = vec
-        # All other functionals of a solve in one pass over the cells (QuadratureFunctionals).
-        self._scalar_names = [k for k in self._outputs if k not in self._force_vectors] + list(self._extra_integrands)
-        integrands = [self._outputs[k][0] if k in self._outputs else self._extra_integrands[k] for k in self._scalar_names]
-        self._scalars = QuadratureFunctionals(self.mesh, integrands, dx.metadata()["quadrature_degree"])
+            self._force_vectors[name] = vec
+        # All other functionals of a solve in one pass over the cells per quadrature rule.
+        scalars = {name: (e, measure) for name, (e, _, _, measure) in self._outputs.items()
+                   if name not in self._force_vectors}
+        scalars.update({name: (e, dx) for name, e in extra.items()})
+        self._scalars = _functionals_by_rule(self.mesh, scalars)
         variables = list(g.variables().values())
         # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
         # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
-        self._dr_forms = [fem.form(ufl.diff(residual, var) * dx) for var in variables]
-        explicit: list[tuple[int, int, object]] = []
-        self._row_gradient: dict[int, object] = {}
+        dr_integrands = [(ufl.diff(residual, var), dx) for var in variables]
+        explicit: dict[tuple[int, int, int], tuple[object, object]] = {}
+        gradients: dict[int, object] = {}
         for i, row in enumerate(_JACOBIAN_ROWS):
-            members = [(k, e, scale) for k, (e, scale, r) in self._outputs.items() if r == row]
-            combined = sum(scale * e for k, e, scale in members if k not in self._force_vectors)
-            if isinstance(combined, int):  # no member left (smooth film: hydrodynamic forces only)
-                continue
-            for j, var in enumerate(variables):
-                if not _is_zero(ufl.diff(combined, var)):
-                    explicit.append((i, j, ufl.diff(combined, var)))
-            if any(k.startswith("viscous") for k, _, _ in members):  # the only outputs with dE/dP != 0
-                self._row_gradient[i] = fem.form(ufl.derivative(combined * dx, P, v))
-        self._explicit_index = [(i, j) for i, j, _ in explicit]
-        self._explicit = QuadratureFunctionals(self.mesh, [e for _, _, e in explicit], dx.metadata()["quadrature_degree"]) \
-            if explicit else None
+            for measure in (dx, dx_moment):
+                members = [(name, e, scale) for name, (e, scale, r, m) in self._outputs.items()
+                           if r == row and m == measure and name not in self._force_vectors]
+                if not members:  # (smooth film: hydrodynamic forces only)
+                    continue
+                combined = sum(scale * e for _, e, scale in members)
+                for j, var in enumerate(variables):
+                    if not _is_zero(ufl.diff(combined, var)):
+                        explicit[(i, j, measure.metadata()["quadrature_degree"])] = (ufl.diff(combined, var), measure)
+                if any(name.startswith("viscous") for name, _, _ in members):  # the only outputs with dE/dP != 0
+                    gradients[i] = (ufl.derivative(combined, P, v), measure)
+        # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
+        self._n_inputs = len(variables)
+        self._gradient_rows = list(gradients)
+        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + list(gradients.values()))
+        self._explicit = _functionals_by_rule(self.mesh, explicit)
         # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
         self._edge_indicator = fem.Function(self.V)
         edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
@@ -396,12 +409,13 @@ class FilmModel:
 
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
-        raw = dict(zip(self._scalar_names, self._scalars()))
-        raw.update({k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()})
-        values = {k: raw[k] * scale for k, (_, scale, _) in self._outputs.items()}
-        values.update({k: raw[k] for k in self._extra_integrands})
+        raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
+        for names, functionals in self._scalars:
+            raw.update(zip(names, functionals()))
+        values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}
+        values.update({k: raw[k] for k in self._extra_names})
         for row in _JACOBIAN_ROWS:
-            values[row] = sum(values[k] for k, (_, _, r) in self._outputs.items() if r == row)
+            values[row] = sum(values[k] for k, (_, _, r, _) in self._outputs.items() if r == row)
         return values
 
     def _pressure_peak(self) -> tuple[float, float, float]:
@@ -420,30 +434,24 @@ class FilmModel:
         """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y, omega_rel), SI."""
         if self._last is None:
             raise RuntimeError("jacobian() needs a solve() first")
-        dr = []
-        for form in self._dr_forms:
-            vec = fem_petsc.assemble_vector(form)
-            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        vectors = self._jacobian_vectors()
+        dr, gradients = vectors[: self._n_inputs], dict(zip(self._gradient_rows, vectors[self._n_inputs :]))
+        for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
-            dr.append(vec)
         dP = self.solver.sensitivities(dr)
         s = self.scales
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
-        n_in = len(self._dr_forms)
-        J = np.zeros((4, n_in))
-        if self._explicit is not None:
-            for (i, j), value in zip(self._explicit_index, self._explicit()):
+        J = np.zeros((4, self._n_inputs))
+        for keys, functionals in self._explicit:
+            for (i, j, _), value in zip(keys, functionals()):
                 J[i, j] += value
         for i, row in enumerate(_JACOBIAN_ROWS):
-            for name, (_, scale, r) in self._outputs.items():
+            for name, (_, scale, r, _) in self._outputs.items():
                 if r == row and name in self._force_vectors:
                     J[i] += scale * np.array([self._force_vectors[name].dot(d) for d in dP])
-            if i in self._row_gradient:
-                grad = fem_petsc.assemble_vector(self._row_gradient[i])
-                grad.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                J[i] += np.array([grad.dot(d) for d in dP])
-                grad.destroy()
-        for vec in dr + dP:
+            if i in gradients:
+                J[i] += np.array([gradients[i].dot(d) for d in dP])
+        for vec in dP:
             vec.destroy()
         # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.
         J = np.column_stack([J[:, :4], (J[:, 4] - J[:, 5]) / (2 * s.omega_ref)])
@@ -484,6 +492,7 @@ class FilmModel:
 
     def close(self) -> None:
         self.solver.close()
+        self._jacobian_vectors.close()
         for vec in self._force_vectors.values():
             vec.destroy()
 
@@ -492,6 +501,54 @@ class FilmModel:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class BlockedVectors:
+    """Several linear forms in the test function of a scalar space, assembled in one pass.
+
+    ``integrands`` are (integrand, measure) pairs; integrands of the same measure share one kernel.
+
+    The integrands become the components of one form in the blocked (vector) space of the same
+    element, so the kernel computes their common subexpressions (film thickness, flow factors) once
+    per quadrature point instead of once per form; the components are then copied into vectors of
+    the scalar space (reused between calls: do not keep them across calls).
+    """
+
+    def __init__(self, V, v, integrands: list[tuple[object, object]]):
+        element = V.ufl_element()
+        self.size = len(integrands)
+        blocked = fem.VectorFunctionSpace(V.mesh, (element.family(), element.degree()), dim=self.size)
+        w = ufl.TestFunction(blocked)
+        self.form = fem.form(sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands)))
+        self.blocked = fem_petsc.create_vector(self.form)
+        n_owned = V.dofmap.index_map.size_local
+        if blocked.dofmap.index_map.size_local != n_owned:
+            raise RuntimeError("blocked space distributed differently from the scalar space")
+        # node k of the blocked space carries the values of scalar dof order[k] (the same nodes,
+        # possibly numbered differently)
+        scalar_x = np.round(V.tabulate_dof_coordinates()[:n_owned], 12)
+        blocked_x = np.round(blocked.tabulate_dof_coordinates()[:n_owned], 12)
+        by_scalar, by_blocked = np.lexsort(scalar_x.T), np.lexsort(blocked_x.T)
+        self.order = np.empty(n_owned, dtype=np.int64)
+        self.order[by_blocked] = by_scalar
+        if not np.allclose(scalar_x[self.order], blocked_x, atol=1e-10):
+            raise RuntimeError("the blocked space's nodes differ from the scalar space's")
+        self.vectors = [create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs) for _ in integrands]
+
+    def __call__(self) -> list[PETSc.Vec]:
+        with self.blocked.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self.blocked, self.form)
+        self.blocked.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = self.blocked.getArray(readonly=True).reshape(-1, self.size)
+        for i, vec in enumerate(self.vectors):
+            vec.getArray()[self.order] = values[:, i]
+            vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self.vectors
+
+    def close(self) -> None:
+        for vec in [self.blocked, *self.vectors]:
+            vec.destroy()
 
 
 class QuadratureFunctionals:
@@ -516,6 +573,15 @@ class QuadratureFunctionals:
     def __call__(self) -> np.ndarray:
         values = self.expression.eval(self.cells).reshape(len(self.cells), len(self.weights), self.size)
         return self.comm.allreduce(np.einsum("cqn,q->n", values, self.weights), op=MPI.SUM)
+
+
+def _functionals_by_rule(mesh, integrands: dict) -> list[tuple[list, QuadratureFunctionals]]:
+    """``{key: (integrand, measure)}`` -> [(keys, QuadratureFunctionals)], one per quadrature degree."""
+    groups: dict[int, list] = {}
+    for key, (e, measure) in integrands.items():
+        groups.setdefault(measure.metadata()["quadrature_degree"], []).append((key, e))
+    return [([key for key, _ in members], QuadratureFunctionals(mesh, [e for _, e in members], degree))
+            for degree, members in sorted(groups.items())]
 
 
 def _is_zero(expression) -> bool:
