@@ -215,7 +215,10 @@ class FilmModel:
         hole = None
         if bearing.supply_hole_angle is not None:
             hole = SupplyHole(angle=bearing.supply_hole_angle, diameter=bearing.supply_hole_diameter / R)
-        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole)
+        # aligned surfaces, edges at the same pressure, a hole on the mid-plane: the film is symmetric
+        # about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and every
+        # integral over the film is doubled (solver.mesh)
+        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=True)
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
@@ -247,25 +250,26 @@ class FilmModel:
         k = self.V.ufl_element().degree()
         dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k - 1})
         dx_moment = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k})
+        whole = float(self.mesh_spec.multiplicity)  # integrals over the whole film / over the mesh
         residual = film.reynolds_integrand(P, v, g, self.roughness)
         self._a = fem.form(ufl.derivative(residual * dx, P, dP))
         self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         tau_j, tau_b = film.shear_traction_integrands(P, g, self.roughness)
         # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, measure)
         self._outputs = {
-            "hydro_x": (-P * g.normal[0], s.force, "force_x", dx_moment),
-            "hydro_y": (-P * g.normal[1], s.force, "force_y", dx_moment),
-            "viscous_torque_journal": (tau_j, s.shear_torque, "torque_journal", dx_moment),
-            "viscous_torque_bushing": (tau_b, s.shear_torque, "torque_bushing", dx_moment),
+            "hydro_x": (-P * g.normal[0], whole * s.force, "force_x", dx_moment),
+            "hydro_y": (-P * g.normal[1], whole * s.force, "force_y", dx_moment),
+            "viscous_torque_journal": (tau_j, whole * s.shear_torque, "torque_journal", dx_moment),
+            "viscous_torque_bushing": (tau_b, whole * s.shear_torque, "torque_bushing", dx_moment),
         }
         extra = {}
         if self.contact is not None:
             slip_reg = self.slip_regularisation / s.speed
             P_c, tau_c, area = film.asperity_integrands(g, self.contact, s.pressure, slip_reg)
-            torque_scale = s.pressure * self.bearing.radius**3
+            torque_scale = whole * s.pressure * self.bearing.radius**3
             self._outputs.update({
-                "asperity_x": (-P_c * g.normal[0], s.force, "force_x", dx),
-                "asperity_y": (-P_c * g.normal[1], s.force, "force_y", dx),
+                "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", dx),
+                "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", dx),
                 # the contact normals pass through the bushing centre, so on the journal they have the
                 # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
                 "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
@@ -273,7 +277,7 @@ class FilmModel:
                                             torque_scale, "torque_journal", dx),
                 "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", dx),
             })
-            extra = {"contact_area": area, "asperity_normal": P_c}
+            extra = {"contact_area": whole * area, "asperity_normal": whole * P_c}
         self._extra_names = list(extra)
         # Hydrodynamic forces are linear in P with weights independent of the kinematics: g_i . P.
         self._force_vectors = {}
@@ -320,7 +324,7 @@ class FilmModel:
         edge_cells = np.unique(mesh_entities_to_cells(self.mesh, edges))
         cell_marker = meshtags(self.mesh, 2, edge_cells.astype(np.int32), np.ones(len(edge_cells), dtype=np.int32))
         dx_edge = ufl.dx(domain=self.mesh, subdomain_data=cell_marker, subdomain_id=1, metadata=dx.metadata())
-        self._side_flow_form = fem.form(ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
+        self._side_flow_form = fem.form(whole * ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
 
     def _boundary_conditions(self) -> list:
         fdim = 1

@@ -70,12 +70,16 @@ def write_film_fields(directory: Path, name: str, model, times: list[float] | No
 
 
 def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(theta [deg, bushing frame], z [mm], p [MPa]) of all dofs on rank 0; None elsewhere."""
+    """(theta [deg, bushing frame], z [mm], p [MPa]) of all dofs on rank 0 (a half mesh mirrored to
+    the whole width); None elsewhere."""
     n = model.V.dofmap.index_map.size_local
     coords = model.V.tabulate_dof_coordinates()[:n]
     theta = (np.degrees(np.arctan2(coords[:, 1], coords[:, 0]) + getattr(model, "_beta", 0.0))) % 360.0
     z = coords[:, 2] * model.bearing.radius * 1e3
     p = model.P.x.array[:n] * model.scales.pressure * 1e-6
+    if model.mesh_spec.half:  # the solved half z >= 0 and its mirror image
+        mirror = z > 0
+        theta, z, p = np.concatenate([theta, theta[mirror]]), np.concatenate([z, -z[mirror]]), np.concatenate([p, p[mirror]])
     parts = model.comm.gather((theta, z, p), root=0)
     if model.comm.rank != 0:
         return None

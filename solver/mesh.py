@@ -9,12 +9,18 @@ Named physical groups (``TAGS``):
 
 - ``film`` (cells): the bearing surface,
 - ``edge_minus`` / ``edge_plus`` (facets): the circles at z = -B/2 and z = +B/2 (ambient pressure),
+- ``mid_plane`` (facets, half meshes only): the circle at z = 0,
 - ``supply`` (cells, optional): an oil hole, a disc of given diameter on the surface, held at the
   supply pressure.
 
 The bushing angle theta is measured from the bushing x axis toward its y axis, so a mesh point is
 (cos theta, sin theta, z/R). The mesh is made by gmsh on rank 0 of the given communicator and
 distributed over it (``dolfinx.io.gmshio.model_to_mesh``).
+
+``half=True`` meshes only the half z >= 0 (the film of aligned surfaces with edges at the same
+pressure is symmetric about the mid-plane: zero axial flux there is the natural condition of the
+weak form, so nothing has to be imposed); integrals over the whole film are twice those over it.
+A supply hole must then be centred on the mid-plane.
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ from dolfinx.io import gmshio
 
 from solver.errors import out_of_range
 
-TAGS = {"film": 1, "supply": 2, "edge_minus": 11, "edge_plus": 12}
+TAGS = {"film": 1, "supply": 2, "edge_minus": 11, "edge_plus": 12, "mid_plane": 13}
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -51,6 +57,7 @@ class FilmMeshSpec:
     element_size: float = 0.05  # target element edge length / R
     hole: SupplyHole | None = None
     order: int = 1  # geometry order of the triangles (1 or 2)
+    half: bool = False  # mesh only z >= 0 (symmetric film, see the module docstring)
 
     def __post_init__(self) -> None:
         if not self.width > 0:
@@ -64,18 +71,26 @@ class FilmMeshSpec:
                 raise out_of_range("supply hole diameter / radius", self.hole.diameter, f"(0, {min(self.width, math.pi):.3g})")
             if not abs(self.hole.z) + self.hole.diameter / 2 < self.width / 2:
                 raise out_of_range("supply hole axial position / radius", self.hole.z, "inside the bearing width")
+            if self.half and self.hole.z != 0.0:
+                raise out_of_range("supply hole axial position / radius", self.hole.z, "0 on a half mesh")
+
+    @property
+    def multiplicity(self) -> int:
+        """How many copies of the meshed part make the whole film (2 for a half mesh)."""
+        return 2 if self.half else 1
 
 
 def _build_gmsh_model(spec: FilmMeshSpec) -> None:
     """Build the surface, physical groups and mesh in the current gmsh model."""
     occ = gmsh.model.occ
     half = spec.width / 2
+    z_start = 0.0 if spec.half else -half
     # The seam of the extruded circle lies at theta = 0; a hole is kept away from it by rotating
     # the circle so that the seam is opposite the hole.
     seam = (spec.hole.angle + math.pi) if spec.hole is not None else 0.0
-    circle = occ.addCircle(0.0, 0.0, -half, 1.0, angle1=0.0, angle2=2 * math.pi)
+    circle = occ.addCircle(0.0, 0.0, z_start, 1.0, angle1=0.0, angle2=2 * math.pi)
     occ.rotate([(1, circle)], 0, 0, 0, 0, 0, 1, seam)
-    extruded = occ.extrude([(1, circle)], 0.0, 0.0, spec.width)
+    extruded = occ.extrude([(1, circle)], 0.0, 0.0, half - z_start)
     surfaces = [tag for dim, tag in extruded if dim == 2]
     supply_surfaces: list[int] = []
     if spec.hole is not None:
@@ -94,19 +109,20 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         supply_surfaces = [film_pieces[int(np.argmin(distance))]]
         surfaces = [t for t in film_pieces if t not in supply_surfaces]
     occ.synchronize()
-    edge_minus, edge_plus = [], []
+    edges: dict[str, list[int]] = {"edge_minus": [], "edge_plus": [], "mid_plane": []}
     for dim, tag in gmsh.model.getEntities(1):
         bbox = gmsh.model.getBoundingBox(dim, tag)
-        if abs(bbox[2] + half) < 1e-5 and abs(bbox[5] + half) < 1e-5:
-            edge_minus.append(tag)
-        elif abs(bbox[2] - half) < 1e-5 and abs(bbox[5] - half) < 1e-5:
-            edge_plus.append(tag)
+        for name, z in (("edge_minus", -half), ("edge_plus", half), ("mid_plane", 0.0)):
+            if abs(bbox[2] - z) < 1e-5 and abs(bbox[5] - z) < 1e-5 and (name != "mid_plane" or spec.half):
+                edges[name].append(tag)
     gmsh.model.addPhysicalGroup(2, surfaces, TAGS["film"])
     gmsh.model.setPhysicalName(2, TAGS["film"], "film")
     if supply_surfaces:
         gmsh.model.addPhysicalGroup(2, supply_surfaces, TAGS["supply"])
         gmsh.model.setPhysicalName(2, TAGS["supply"], "supply")
-    for name, tags in (("edge_minus", edge_minus), ("edge_plus", edge_plus)):
+    for name, tags in edges.items():
+        if not tags:
+            continue
         gmsh.model.addPhysicalGroup(1, tags, TAGS[name])
         gmsh.model.setPhysicalName(1, TAGS[name], name)
     gmsh.option.setNumber("Mesh.CharacteristicLengthMin", spec.element_size)
