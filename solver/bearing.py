@@ -197,11 +197,13 @@ class FilmModel:
         contact: Greenwood-Tripp asperity contact (solver.contact.GreenwoodTripp); None: no contact.
         slip_regularisation: sliding speed [m/s] below which asperity friction is smoothed to zero.
         options: PETSc options over solver.cavitation.DEFAULT_OPTIONS.
+        half: solve the half z >= 0 of the film (it is symmetric about the mid-plane); False meshes
+            the whole width (same results to the discretisation error, twice the unknowns).
     """
 
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float = DEFAULT_MESH_SIZE,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
-                 options: dict | None = None):
+                 options: dict | None = None, half: bool = True):
         self.bearing = bearing
         self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
                                  omega_ref=omega_ref)
@@ -218,7 +220,7 @@ class FilmModel:
         # aligned surfaces, edges at the same pressure, a hole on the mid-plane: the film is symmetric
         # about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and every
         # integral over the film is doubled (solver.mesh)
-        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=True)
+        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=half)
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))

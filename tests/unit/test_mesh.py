@@ -42,8 +42,28 @@ def test_mesh_area_edges_and_hole(comm):
     assert centre[2] == pytest.approx(0.1, abs=0.01)
 
 
+@pytest.mark.mpi
+def test_half_mesh_covers_z_above_the_mid_plane(comm):
+    """The half mesh: area pi B/R (half the cylinder, same chord error as above: 1e-3), the outer edge
+    and the mid-plane circle each 2 pi long, no edge at z = -B/2, every node at z >= 0, and a hole on
+    the mid-plane cut in half (half the disc area, 3 % for its polygonal rim)."""
+    spec = FilmMeshSpec(width=1.5, element_size=0.05, hole=SupplyHole(angle=2.0, diameter=0.4), half=True)
+    mesh, cell_tags, facet_tags = film_mesh(spec, comm)
+    one = fem.Constant(mesh, 1.0)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
+    assert spec.multiplicity == 2
+    assert _integrate(mesh, one, dx) == pytest.approx(math.pi * 1.5, rel=1e-3)
+    for name in ("edge_plus", "mid_plane"):
+        assert _integrate(mesh, one, ds(TAGS[name])) == pytest.approx(2 * math.pi, rel=1e-3)
+    assert _integrate(mesh, one, ds(TAGS["edge_minus"])) == 0.0
+    assert comm.allreduce(float(mesh.geometry.x[:, 2].min(initial=0.0)), op=MPI.MIN) >= -1e-12
+    assert _integrate(mesh, one, dx(TAGS["supply"])) == pytest.approx(0.5 * math.pi * 0.2**2, rel=0.03)
+
+
 @pytest.mark.parametrize("kwargs", [dict(width=0.0), dict(width=1.0, element_size=0.0),
-                                    dict(width=1.0, hole=SupplyHole(angle=0.0, diameter=2.0))])
+                                    dict(width=1.0, hole=SupplyHole(angle=0.0, diameter=2.0)),
+                                    dict(width=1.0, hole=SupplyHole(angle=0.0, z=0.1, diameter=0.2), half=True)])
 def test_bad_mesh_spec_is_input_error(kwargs):
     with pytest.raises(InputError, match="out of range"):
         FilmMeshSpec(**kwargs)

@@ -43,6 +43,28 @@ def test_smooth_limit_equals_smooth_solver():
 
 
 @pytest.mark.serial
+def test_half_film_equals_the_whole_film():
+    """The film is solved on the half z >= 0 (symmetry about the mid-plane). The same state on a mesh
+    of the whole width, mixed lubrication with asperity contact, squeeze and rotation: film and
+    asperity force, both torques, p_max, contact area and side flow agree within 1 % (two different
+    meshes of 0.05 R: each output is within ~0.3 % of its converged value, bench/film_mesh_convergence.py;
+    a wrong factor of the half mesh's integrals would be 100 % off)."""
+    bearing = Bearing(radius=R, width=B, clearance=C, viscosity=MU)
+    kin = Kinematics((0.85 * C, -0.4 * C), (0.001 * C * 300, -0.002 * C * 300), 200.0, -50.0)
+    surface = Surface(sigma_journal=0.3e-6, sigma_bushing=0.3e-6)
+    results = []
+    for half in (True, False):
+        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=300.0, mesh_size=0.05, roughness=surface.roughness(),
+                       contact=surface.contact(), half=half) as model:
+            results.append(model.solve(kin))
+    half_film, whole = results
+    assert whole.asperity_load > 1e-3 * whole.load  # contact present: its integrals are checked too
+    for name in ("hydro_load", "asperity_load", "torque_journal", "torque_bushing", "p_max", "contact_area_ratio",
+                 "side_flow"):
+        assert getattr(half_film, name) == pytest.approx(getattr(whole, name), rel=0.01), name
+
+
+@pytest.mark.serial
 def test_uniform_contact_of_a_concentric_pin():
     """Concentric pin, c = 0.5 um, sigma = 0.316 um: H = 1.58 < 3 everywhere. Then
     integral p_c dA = p_c(H) 2 pi R B, the asperity force vector vanishes, the asperity friction torque
