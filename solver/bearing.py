@@ -231,6 +231,12 @@ class FilmModel:
         self.roughness, self.contact = roughness, contact
         self.slip_regularisation = slip_regularisation
         self._build_forms()
+        self._owned_cells = np.arange(self.mesh.topology.index_map(2).size_local, dtype=np.int32)
+        x = self.mesh.geometry.x[self.mesh.geometry.dofmap.array.reshape(-1, 3)[: len(self._owned_cells)]]
+        angle = np.arctan2(x[..., 1], x[..., 0])
+        self._vertex_cos, self._vertex_sin = np.cos(angle), np.sin(angle)
+        spread = np.ptp(np.unwrap(angle, axis=1), axis=1)
+        self._cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
         self.bcs = self._boundary_conditions()
         self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
                                        lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
@@ -245,24 +251,29 @@ class FilmModel:
         # The coefficients (H^3, flow factors, sqrt in theta) would make UFL pick a very high
         # quadrature degree; they are smooth on an element, so degree 2k - 1 (the midpoint rule for
         # P1) keeps the discretisation error of order h^2: at the engine's hardest state the film
-        # load on the default mesh is 0.2 % from converged (0.8 % with degree 2k), at 2.5 x less
-        # assembly time (bench/film_mesh_convergence.py). The hydrodynamic forces and the viscous
-        # torques take degree 2k: the film's moment balance (T_j + T_b + e x F = 0) rests on an
-        # integration by parts between them that only a more accurate rule keeps to 1e-5.
+        # load on the default mesh is 0.1 % from converged (0.8 % with degree 2k), at 2.5 x less
+        # assembly time (bench/film_mesh_convergence.py). The hydrodynamic forces and the pressure
+        # part of the viscous torques take degree 2k: the film's moment balance (T_j + T_b + e x F
+        # = 0) rests on an integration by parts between them that only a more accurate rule keeps
+        # to 1e-5.
         k = self.V.ufl_element().degree()
         dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k - 1})
         dx_moment = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k})
+        # functionals are evaluated per group: (measure, only on the cells where asperities touch)
+        groups = {"film": (dx, False), "moment": (dx_moment, False), "contact": (dx, True)}
         whole = float(self.mesh_spec.multiplicity)  # integrals over the whole film / over the mesh
         residual = film.reynolds_integrand(P, v, g, self.roughness)
         self._a = fem.form(ufl.derivative(residual * dx, P, dP))
         self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
-        tau_j, tau_b = film.shear_traction_integrands(P, g, self.roughness)
-        # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, measure)
+        couette_j, couette_b, pressure_part = film.shear_traction_integrands(P, g, self.roughness)
+        # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, group)
         self._outputs = {
-            "hydro_x": (-P * g.normal[0], whole * s.force, "force_x", dx_moment),
-            "hydro_y": (-P * g.normal[1], whole * s.force, "force_y", dx_moment),
-            "viscous_torque_journal": (tau_j, whole * s.shear_torque, "torque_journal", dx_moment),
-            "viscous_torque_bushing": (tau_b, whole * s.shear_torque, "torque_bushing", dx_moment),
+            "hydro_x": (-P * g.normal[0], whole * s.force, "force_x", "moment"),
+            "hydro_y": (-P * g.normal[1], whole * s.force, "force_y", "moment"),
+            "viscous_couette_journal": (couette_j, whole * s.shear_torque, "torque_journal", "film"),
+            "viscous_couette_bushing": (couette_b, whole * s.shear_torque, "torque_bushing", "film"),
+            "viscous_pressure_journal": (pressure_part, whole * s.shear_torque, "torque_journal", "moment"),
+            "viscous_pressure_bushing": (pressure_part, whole * s.shear_torque, "torque_bushing", "moment"),
         }
         extra = {}
         if self.contact is not None:
@@ -270,52 +281,52 @@ class FilmModel:
             P_c, tau_c, area = film.asperity_integrands(g, self.contact, s.pressure, slip_reg)
             torque_scale = whole * s.pressure * self.bearing.radius**3
             self._outputs.update({
-                "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", dx),
-                "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", dx),
+                "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", "contact"),
+                "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", "contact"),
                 # the contact normals pass through the bushing centre, so on the journal they have the
                 # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
                 "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
                                             * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
-                                            torque_scale, "torque_journal", dx),
-                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", dx),
+                                            torque_scale, "torque_journal", "contact"),
+                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", "contact"),
             })
             extra = {"contact_area": whole * area, "asperity_normal": whole * P_c}
         self._extra_names = list(extra)
         # Hydrodynamic forces are linear in P with weights independent of the kinematics: g_i . P.
         self._force_vectors = {}
         for name in ("hydro_x", "hydro_y"):
-            integrand, _, _, measure = self._outputs[name]
-            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(integrand * measure, P, v)))
+            integrand, _, _, group = self._outputs[name]
+            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(integrand * groups[group][0], P, v)))
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self._force_vectors[name] = vec
-        # All other functionals of a solve in one pass over the cells per quadrature rule.
-        scalars = {name: (e, measure) for name, (e, _, _, measure) in self._outputs.items()
-                   if name not in self._force_vectors}
-        scalars.update({name: (e, dx) for name, e in extra.items()})
-        self._scalars = _functionals_by_rule(self.mesh, scalars)
+        # All other functionals of a solve in one pass over the cells per group.
+        scalars = {name: (e, group) for name, (e, _, _, group) in self._outputs.items() if name not in self._force_vectors}
+        scalars.update({name: (e, "contact") for name, e in extra.items()})
+        self._scalars = _functionals_by_group(self.mesh, scalars, groups)
         variables = list(g.variables().values())
         # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
         # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
         dr_integrands = [(ufl.diff(residual, var), dx) for var in variables]
-        explicit: dict[tuple[int, int, int], tuple[object, object]] = {}
-        gradients: dict[int, object] = {}
+        explicit: dict[tuple[int, int, str], tuple[object, str]] = {}
+        gradients: list[tuple[int, object, object]] = []
         for i, row in enumerate(_JACOBIAN_ROWS):
-            for measure in (dx, dx_moment):
-                members = [(name, e, scale) for name, (e, scale, r, m) in self._outputs.items()
-                           if r == row and m == measure and name not in self._force_vectors]
+            for group, (measure, _) in groups.items():
+                members = [(name, e, scale) for name, (e, scale, r, gr) in self._outputs.items()
+                           if r == row and gr == group and name not in self._force_vectors]
                 if not members:  # (smooth film: hydrodynamic forces only)
                     continue
                 combined = sum(scale * e for _, e, scale in members)
                 for j, var in enumerate(variables):
                     if not _is_zero(ufl.diff(combined, var)):
-                        explicit[(i, j, measure.metadata()["quadrature_degree"])] = (ufl.diff(combined, var), measure)
-                if any(name.startswith("viscous") for name, _, _ in members):  # the only outputs with dE/dP != 0
-                    gradients[i] = (ufl.derivative(combined, P, v), measure)
+                        explicit[(i, j, group)] = (ufl.diff(combined, var), group)
+                gradient = ufl.derivative(combined, P, v)
+                if not _is_zero(gradient):  # dE/dP != 0: the pressure part of the viscous torques
+                    gradients.append((i, gradient, measure))
         # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
         self._n_inputs = len(variables)
-        self._gradient_rows = list(gradients)
-        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + list(gradients.values()))
-        self._explicit = _functionals_by_rule(self.mesh, explicit)
+        self._gradient_rows = [i for i, _, _ in gradients]
+        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients])
+        self._explicit = _functionals_by_group(self.mesh, explicit, groups)
         # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
         self._edge_indicator = fem.Function(self.V)
         edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
@@ -410,14 +421,29 @@ class FilmModel:
             side_flow=-self._assemble(self._side_flow_form) * s.flow,
             iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma)
 
+    def _contact_cells(self) -> np.ndarray:
+        """Owned cells where the asperity pressure can be non-zero at a quadrature point.
+
+        Greenwood-Tripp's pressure and contact area vanish exactly for h/sigma >= contact.support;
+        a cell is kept when the film thickness at one of its vertices is below that plus the most it
+        can fall toward the cell's interior (|eps| times the cell's angular extent).
+        """
+        if self.contact is None:
+            return np.zeros(0, dtype=np.int32)
+        eps_x, eps_y = float(self.params.eps_x.value), float(self.params.eps_y.value)
+        H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin  # (cells, 3)
+        limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
+        return self._owned_cells[H.min(axis=1) < limit]
+
     def _assemble(self, form) -> float:
         return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
         raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
+        cells = self._contact_cells()
         for names, functionals in self._scalars:
-            raw.update(zip(names, functionals()))
+            raw.update(zip(names, functionals(cells if functionals.contact_only else None)))
         values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}
         values.update({k: raw[k] for k in self._extra_names})
         for row in _JACOBIAN_ROWS:
@@ -441,22 +467,23 @@ class FilmModel:
         if self._last is None:
             raise RuntimeError("jacobian() needs a solve() first")
         vectors = self._jacobian_vectors()
-        dr, gradients = vectors[: self._n_inputs], dict(zip(self._gradient_rows, vectors[self._n_inputs :]))
+        dr, gradients = vectors[: self._n_inputs], vectors[self._n_inputs :]
         for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
         dP = self.solver.sensitivities(dr)
         s = self.scales
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
         J = np.zeros((4, self._n_inputs))
+        cells = self._contact_cells()
         for keys, functionals in self._explicit:
-            for (i, j, _), value in zip(keys, functionals()):
+            for (i, j, _), value in zip(keys, functionals(cells if functionals.contact_only else None)):
                 J[i, j] += value
         for i, row in enumerate(_JACOBIAN_ROWS):
             for name, (_, scale, r, _) in self._outputs.items():
                 if r == row and name in self._force_vectors:
                     J[i] += scale * np.array([self._force_vectors[name].dot(d) for d in dP])
-            if i in gradients:
-                J[i] += np.array([gradients[i].dot(d) for d in dP])
+        for i, gradient in zip(self._gradient_rows, gradients):
+            J[i] += np.array([gradient.dot(d) for d in dP])
         for vec in dP:
             vec.destroy()
         # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.
@@ -570,24 +597,36 @@ class QuadratureFunctionals:
         import basix
 
         points, self.weights = basix.make_quadrature(basix.CellType.triangle, degree)
+        self.contact_only = False  # evaluated only on the cells that FilmModel._contact_cells gives
         area = abs(ufl.JacobianDeterminant(mesh))
         self.size = len(integrands)
         self.expression = fem.Expression(ufl.as_vector([e * area for e in integrands]), points)
         self.cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
         self.comm = mesh.comm
 
-    def __call__(self) -> np.ndarray:
-        values = self.expression.eval(self.cells).reshape(len(self.cells), len(self.weights), self.size)
-        return self.comm.allreduce(np.einsum("cqn,q->n", values, self.weights), op=MPI.SUM)
+    def __call__(self, cells: np.ndarray | None = None) -> np.ndarray:
+        """The integrals over the owned cells, or over ``cells`` (where the others contribute 0)."""
+        cells = self.cells if cells is None else cells
+        local = np.zeros(self.size)
+        if len(cells):
+            values = self.expression.eval(cells).reshape(len(cells), len(self.weights), self.size)
+            local = np.einsum("cqn,q->n", values, self.weights)
+        return self.comm.allreduce(local, op=MPI.SUM)
 
 
-def _functionals_by_rule(mesh, integrands: dict) -> list[tuple[list, QuadratureFunctionals]]:
-    """``{key: (integrand, measure)}`` -> [(keys, QuadratureFunctionals)], one per quadrature degree."""
-    groups: dict[int, list] = {}
-    for key, (e, measure) in integrands.items():
-        groups.setdefault(measure.metadata()["quadrature_degree"], []).append((key, e))
-    return [([key for key, _ in members], QuadratureFunctionals(mesh, [e for _, e in members], degree))
-            for degree, members in sorted(groups.items())]
+def _functionals_by_group(mesh, integrands: dict, groups: dict) -> list[tuple[list, QuadratureFunctionals]]:
+    """``{key: (integrand, group)}`` -> [(keys, QuadratureFunctionals)], one per group of ``groups``
+    (``{group: (measure, contact_only)}``) that has integrands."""
+    members: dict[str, list] = {}
+    for key, (e, group) in integrands.items():
+        members.setdefault(group, []).append((key, e))
+    out = []
+    for group, items in members.items():
+        measure, contact_only = groups[group]
+        functionals = QuadratureFunctionals(mesh, [e for _, e in items], measure.metadata()["quadrature_degree"])
+        functionals.contact_only = contact_only
+        out.append(([key for key, _ in items], functionals))
+    return out
 
 
 def _is_zero(expression) -> bool:

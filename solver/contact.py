@@ -130,6 +130,11 @@ class GreenwoodTripp:
             raise out_of_range("asperity method", repr(self.method), "'exact' or 'fit'")
 
     @property
+    def support(self) -> float:
+        """Hs at and above which the contact pressure and area are exactly 0 (HS_MAX; the fit's 4 < it)."""
+        return HS_MAX
+
+    @property
     def K(self) -> float:
         """K = (16 sqrt(2) pi / 15) (eta beta sigma)^2 sqrt(sigma / beta)."""
         return 16 * math.sqrt(2) * math.pi / 15 * self.eta_beta_sigma**2 * math.sqrt(self.sigma_over_beta)

@@ -140,7 +140,9 @@ def shear_traction_integrands(P, geometry: FilmGeometry, roughness: Roughness | 
 
         tau = mu (U1 - U2)/h (Phi_f -/+ Phi_fs) -/+ Phi_fp h/2 dp/dx.
 
-    Returned in units of ``mu R omega_ref / c``; with the scaling ``h/2 dp/dx = 6 H dP/dtheta``.
+    Returned in units of ``mu R omega_ref / c``; with the scaling ``h/2 dp/dx = 6 H dP/dtheta``, as
+    the parts ``(couette_journal, couette_bushing, pressure)`` with ``tau_journal = couette_journal +
+    pressure`` and ``tau_bushing = couette_bushing + pressure`` (the pressure part is linear in P).
     """
     g, prm = geometry, geometry.params
     dP_dtheta = ufl.dot(ufl.grad(P), g.tangent)
@@ -151,9 +153,7 @@ def shear_traction_integrands(P, geometry: FilmGeometry, roughness: Roughness | 
         Phi_f, Phi_fs, Phi_fp = roughness.shear_stress_factors(g.H / prm.S, mod=ufl)
     couette = relative_speed / g.H
     poiseuille = 6.0 * g.H * dP_dtheta
-    tau_journal = couette * (Phi_f - Phi_fs) - Phi_fp * poiseuille
-    tau_bushing = -couette * (Phi_f + Phi_fs) - Phi_fp * poiseuille
-    return tau_journal, tau_bushing
+    return couette * (Phi_f - Phi_fs), -couette * (Phi_f + Phi_fs), -Phi_fp * poiseuille
 
 
 def asperity_integrands(geometry: FilmGeometry, contact, pressure_ref: float, slip_regularisation: float):
