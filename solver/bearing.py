@@ -64,7 +64,7 @@ log = logging.getLogger(__name__)
 INLETS = ("max-gap", "none")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
 STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
-DEFAULT_MESH_SIZE = 0.07  # element size / R: ~3100 nodes for B/D = 1, So within 0.9 % of the tables (bench/)
+DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
