@@ -90,6 +90,7 @@ class Trajectory:
     wall_time: float
     next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
     jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian (pass it on)
+    interpolant: object | None = None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
 
 
 class _System:
@@ -285,7 +286,8 @@ class ESDIRK32:
 
     def __init__(self, system: _System, t0: float, y0: np.ndarray, t_bound: float, *, rtol: float,
                  atol, max_step: float = np.inf, first_step: float | None = None,
-                 jacobian_reuse: bool = False, jacobian: np.ndarray | None = None):
+                 jacobian_reuse: bool = False, jacobian: np.ndarray | None = None,
+                 interpolant: _HermiteOutput | None = None):
         self.system = system
         self.jacobian_reuse = jacobian_reuse
         #: the latest ODE Jacobian (kept across iterations, stages and steps when reusing)
@@ -298,7 +300,8 @@ class ESDIRK32:
         self.status = "running" if t_bound > t0 else "finished"
         self.nlu = 0
         self.h = first_step if first_step is not None else self._initial_step()
-        self._dense: _HermiteOutput | None = None
+        # the last step's interpolant; given, it continues a previous integration that ended at t0
+        self._dense: _HermiteOutput | None = interpolant
         self._constraint_part: np.ndarray | None = None
         self._full_newton = False  # set for the retry of a step whose simplified Newton failed
 
@@ -491,6 +494,7 @@ def integrate(
     assemble_initial_state: bool = True,
     jacobian_reuse: bool = False,
     jacobian: np.ndarray | None = None,
+    interpolant: object | None = None,
 ) -> Trajectory:
     """Integrate the mechanism from (q0, qd0) over t_span with error control.
 
@@ -515,6 +519,10 @@ def integrate(
             contracts fast (:meth:`ESDIRK32._stage`); the last one is returned in the Trajectory.
         jacobian: ESDIRK32 with jacobian_reuse: a Jacobian to start with (e.g. the previous
             interval's ``Trajectory.jacobian``).
+        interpolant: ESDIRK32: the previous interval's ``Trajectory.interpolant`` when this call
+            continues it from its end state: the first step's Newton iteration then starts from its
+            extrapolation, as every later step does (an explicit Euler guess of a stiff joint's
+            velocity can be far off, and costs Newton and VI iterations).
 
     Returns:
         The :class:`Trajectory`.
@@ -537,7 +545,7 @@ def integrate(
     if method == "ESDIRK32":
         solver = ESDIRK32(
             system, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
-            jacobian_reuse=jacobian_reuse, jacobian=jacobian,
+            jacobian_reuse=jacobian_reuse, jacobian=jacobian, interpolant=interpolant,
         )
     else:
         options = {"rtol": rtol, "atol": atol, "max_step": max_step}
@@ -609,4 +617,5 @@ def integrate(
         wall_time=time.perf_counter() - start,
         next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
         jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
+        interpolant=getattr(solver, "_dense", None) if method == "ESDIRK32" else None,
     )

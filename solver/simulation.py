@@ -174,19 +174,19 @@ class _Run:
         # relative velocity of a stiff joint, and the film force depends on that velocity.
         rows = [self._state_outputs(t0, q0, qd0)]
         q, qd, t = q0, qd0, t0
-        step = jacobian = None
+        step = jacobian = interpolant = None
         for k in range(1, n_out + 1):
             t_end = float(times[k])
             try:
                 tr = integrate(self.em.mechanism, q, qd, (t, t_end), method="ESDIRK32", rtol=self.case.solver.rtol,
                                atol=self.atol, alpha=self.omega, beta=self.omega, t_eval=np.array([t_end]),
                                first_step=step, assemble_initial_state=False, jacobian_reuse=True,
-                               jacobian=jacobian)
+                               jacobian=jacobian, interpolant=interpolant)
             except IntegrationError as err:
                 raise SimulationError(f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
                                       f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}") from None
             q, qd, t = tr.q[-1], tr.qd[-1], t_end
-            jacobian = tr.jacobian
+            jacobian, interpolant = tr.jacobian, tr.interpolant
             step = min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
             rows.append(self._outputs(t, q, qd, tr.qdd[-1], tr.lam[-1]))
             self.steps += tr.n_steps

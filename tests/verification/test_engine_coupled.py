@@ -179,7 +179,7 @@ def test_coarse_mixed_fem_run_of_the_reference_case(tmp_path):
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     with xr.open_dataset(summary["results"]) as ds:
-        assert int(ds.attrs["film_dofs"]) > 500
+        assert int(ds.attrs["film_dofs"]) > 300  # the half film at 0.15 R: ~380 nodes
         sigma = math.hypot(0.1e-6, 0.3e-6)
         assert float(ds.h_min.sel(crank_angle=slice(360, 540)).min()) < 3 * sigma
         assert float(ds.F_asperity.max()) > 0 and float(ds.p_max.max()) > 1e7
