@@ -220,7 +220,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("surface", "impact_speed_m_s", "impact_speed", 0.1, 1.0, 0.0, unit="m/s",
        doc="reference impact speed of the dry joint's hysteresis damping"),
     # [solver]
-    _f("solver", "step_deg", "step", 2.0, DEG, 0.0, 10.0, closed=False, unit="deg",
+    _f("solver", "step_deg", "step", 1.0, DEG, 0.0, 10.0, closed=False, unit="deg",
        doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
     FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
               doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),

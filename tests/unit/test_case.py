@@ -58,7 +58,7 @@ def test_the_reference_case_directory_is_the_default_case():
     assert case.name == "reference-2000rpm"
     for section in ("engine", "gas", "small_end", "oil", "surface"):
         assert getattr(case, section) == type(getattr(case, section))(), section
-    assert case.solver.step == pytest.approx(math.radians(2.0)) and case.solver.joint == "mixed-fem"
+    assert case.solver.step == pytest.approx(math.radians(1.0)) and case.solver.joint == "mixed-fem"
 
 
 def test_units_are_converted_once(tmp_path):
@@ -185,7 +185,7 @@ def test_dataclasses_validate_when_built_in_python():
         SmallEnd(width=0.0)
     with pytest.raises(InputError, match=r"gas.imep_bar"):
         Gas(peak_pressure=None)
-    assert Solver().step == pytest.approx(math.radians(2.0))
+    assert Solver().step == pytest.approx(math.radians(1.0))
     assert Surface().composite_modulus is None
     assert Case(name="x", directory=Path(".")).engine == Engine()
 
