@@ -495,6 +495,7 @@ def integrate(
     jacobian_reuse: bool = False,
     jacobian: np.ndarray | None = None,
     interpolant: object | None = None,
+    accelerations: bool = True,
 ) -> Trajectory:
     """Integrate the mechanism from (q0, qd0) over t_span with error control.
 
@@ -523,6 +524,8 @@ def integrate(
             continues it from its end state: the first step's Newton iteration then starts from its
             extrapolation, as every later step does (an explicit Euler guess of a stiff joint's
             velocity can be far off, and costs Newton and VI iterations).
+        accelerations: False skips qdd and lambda at the outputs (NaN in the Trajectory): a force
+            evaluation less per output for a caller that evaluates its outputs itself.
 
     Returns:
         The :class:`Trajectory`.
@@ -563,7 +566,10 @@ def integrate(
     def record(t_k: float, y_k: np.ndarray) -> None:
         # evaluated now, while the solver's last right-hand side is usually this very state (cache hit)
         before = system.n_force_evaluations
-        qdd_k, lam_k = system.solve(t_k, y_k)
+        if accelerations:
+            qdd_k, lam_k = system.solve(t_k, y_k)
+        else:
+            qdd_k, lam_k = np.full(n, np.nan), np.full(mechanism.n_constraints, np.nan)
         output_evaluations[0] += system.n_force_evaluations - before
         q_k, qd_k = y_k[:n], y_k[n:]
         phi = mechanism.phi(q_k, t_k)

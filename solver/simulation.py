@@ -172,8 +172,9 @@ class _Run:
         times[0] = t0
         # Every output angle is a step end: the cubic dense output is fine for positions but not for the
         # relative velocity of a stiff joint, and the film force depends on that velocity.
-        rows = [self._state_outputs(t0, q0, qd0)]
-        q, qd, t = q0, qd0, t0
+        q, t = q0, t0
+        row, qd = self._state_outputs(t0, q0, qd0)
+        rows = [row]
         step = jacobian = interpolant = None
         for k in range(1, n_out + 1):
             t_end = float(times[k])
@@ -181,14 +182,15 @@ class _Run:
                 tr = integrate(self.em.mechanism, q, qd, (t, t_end), method="ESDIRK32", rtol=self.case.solver.rtol,
                                atol=self.atol, alpha=self.omega, beta=self.omega, t_eval=np.array([t_end]),
                                first_step=step, assemble_initial_state=False, jacobian_reuse=True,
-                               jacobian=jacobian, interpolant=interpolant)
+                               jacobian=jacobian, interpolant=interpolant, accelerations=False)
             except IntegrationError as err:
                 raise SimulationError(f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
                                       f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}") from None
-            q, qd, t = tr.q[-1], tr.qd[-1], t_end
+            q, t = tr.q[-1], t_end
             jacobian, interpolant = tr.jacobian, tr.interpolant
             step = min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
-            rows.append(self._outputs(t, q, qd, tr.qdd[-1], tr.lam[-1]))
+            row, qd = self._state_outputs(t, q, tr.qd[-1])  # the next interval starts from these velocities
+            rows.append(row)
             self.steps += tr.n_steps
             if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
                 progress(cycle, angles[k], rows[-1]["h_min"])
@@ -197,38 +199,36 @@ class _Run:
         h_min = columns["h_min"]
         return CycleOutput(columns, float(np.nanmin(h_min))), (t, q, qd)
 
-    def _state_outputs(self, t: float, q, qd) -> dict[str, float]:
-        """Outputs at a state that is not a step end (the start): accelerations solved here."""
+    def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
+        """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
+        qd = self._consistent(t, q, qd)
         Q = self.em.mechanism.forces(q, qd, t).Q
         qdd, lam = accelerations(self.em.mechanism, q, qd, t, Q, alpha=self.omega, beta=self.omega)
-        return self._outputs(t, q, qd, qdd, lam)
+        return self._outputs(t, q, qd, qdd, lam), qd
 
-    def _consistent(self, t: float, q, qd, qdd, lam):
-        """Velocities on the constraint manifold, with the joint's relative motion kept, for the outputs.
+    def _consistent(self, t: float, q, qd) -> np.ndarray:
+        """Velocities on the constraint manifold that keep the joint's relative motion (outputs).
 
         The integrator leaves velocity-constraint residuals of order rtol |qd| (~1e-4 m/s), whose
         constraint forces do ~1 W of spurious work: as much as the joint dissipates. The outputs are
         therefore evaluated at the velocities with ``Phi_q qd = -Phi_t`` that keep de'/dt (the two
-        free coordinates: the joint forces, stiff in them, are unchanged and come from the cache).
-        The integration itself is not modified.
+        free coordinates, in which the joint is stiff). The next output interval starts from them too
+        (a projection of the velocities at every output time), so the film solve of the outputs is
+        also the first one of the next interval.
         """
         mech, element = self.em.mechanism, self.em.small_end
         if element is None:
-            return qd, qdd, lam
+            return qd
         kin = element.kinematics(q, qd)
         rows = [mech.jacobian(q, t), kin.dz_dqd[2:4]]
         rhs = [-mech.phi_t(q, t), kin.dz_dqd[2:4] @ qd]
         A, b = np.vstack(rows), np.concatenate(rhs)
         correction = A.T @ np.linalg.lstsq(A @ A.T, b - A @ qd, rcond=None)[0]
-        qd_new = qd + correction
-        Q = mech.forces(q, qd_new, t).Q
-        qdd_new, lam_new = accelerations(mech, q, qd_new, t, Q, alpha=self.omega, beta=self.omega)
-        return qd_new, qdd_new, lam_new
+        return qd + correction
 
     def _outputs(self, t: float, q, qd, qdd, lam) -> dict[str, float]:
-        """The DESIGN 4 variables and the energy bookkeeping at one state."""
+        """The DESIGN 4 variables and the energy bookkeeping at one state (consistent velocities)."""
         em, engine, mech = self.em, self.engine, self.em.mechanism
-        qd, qdd, lam = self._consistent(t, q, qd, qdd, lam)
         theta = float(q[3 * CRANK + 2])
         reactions = joint_reactions(mech, q, t, lam)
         out: dict[str, float] = {
