@@ -398,6 +398,7 @@ class FilmModel:
         self.solver.update()
         iterations = self.solver.solve()
         self._last, self._beta = kin, beta
+        self._in_contact = self._contact_cells()  # for the functionals and the Jacobian of this state
         values = self._functionals()
         s = self.scales
         p_max, theta, z = self._pressure_peak()
@@ -435,15 +436,18 @@ class FilmModel:
         limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
         return self._owned_cells[H.min(axis=1) < limit]
 
+    def _integrate(self, functionals: QuadratureFunctionals) -> np.ndarray:
+        """A group of functionals at the last solved state (contact groups on its contact cells only)."""
+        return functionals(self._in_contact if functionals.contact_only else None)
+
     def _assemble(self, form) -> float:
         return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
         raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
-        cells = self._contact_cells()
         for names, functionals in self._scalars:
-            raw.update(zip(names, functionals(cells if functionals.contact_only else None)))
+            raw.update(zip(names, self._integrate(functionals)))
         values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}
         values.update({k: raw[k] for k in self._extra_names})
         for row in _JACOBIAN_ROWS:
@@ -474,9 +478,8 @@ class FilmModel:
         s = self.scales
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
         J = np.zeros((4, self._n_inputs))
-        cells = self._contact_cells()
         for keys, functionals in self._explicit:
-            for (i, j, _), value in zip(keys, functionals(cells if functionals.contact_only else None)):
+            for (i, j, _), value in zip(keys, self._integrate(functionals)):
                 J[i, j] += value
         for i, row in enumerate(_JACOBIAN_ROWS):
             for name, (_, scale, r, _) in self._outputs.items():
@@ -593,11 +596,11 @@ class QuadratureFunctionals:
     solve needs ~10 of them.
     """
 
-    def __init__(self, mesh, integrands: list, degree: int):
+    def __init__(self, mesh, integrands: list, degree: int, *, contact_only: bool = False):
         import basix
 
         points, self.weights = basix.make_quadrature(basix.CellType.triangle, degree)
-        self.contact_only = False  # evaluated only on the cells that FilmModel._contact_cells gives
+        self.contact_only = contact_only  # evaluated only on the cells that FilmModel._contact_cells gives
         area = abs(ufl.JacobianDeterminant(mesh))
         self.size = len(integrands)
         self.expression = fem.Expression(ufl.as_vector([e * area for e in integrands]), points)
@@ -623,8 +626,8 @@ def _functionals_by_group(mesh, integrands: dict, groups: dict) -> list[tuple[li
     out = []
     for group, items in members.items():
         measure, contact_only = groups[group]
-        functionals = QuadratureFunctionals(mesh, [e for _, e in items], measure.metadata()["quadrature_degree"])
-        functionals.contact_only = contact_only
+        functionals = QuadratureFunctionals(mesh, [e for _, e in items], measure.metadata()["quadrature_degree"],
+                                            contact_only=contact_only)
         out.append(([key for key, _ in items], functionals))
     return out
 

@@ -623,5 +623,5 @@ def integrate(
         wall_time=time.perf_counter() - start,
         next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
         jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
-        interpolant=getattr(solver, "_dense", None) if method == "ESDIRK32" else None,
+        interpolant=solver.dense_output() if method == "ESDIRK32" else None,
     )
