@@ -19,7 +19,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from solver import bearing, results, simulation
+from solver.film import bearing
+from solver.study import results, simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from solver.case import load_case  # noqa: E402
-from solver.engine import engine_from_case, simulate_ideal  # noqa: E402
+from solver.dynamics.engine import engine_from_case, simulate_ideal  # noqa: E402
 
 
 def main() -> int:

@@ -20,7 +20,7 @@ import time
 
 from mpi4py import MPI
 
-from solver.bearing import Bearing, FilmModel, Kinematics
+from solver.film.bearing import Bearing, FilmModel, Kinematics
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 2 * math.pi * 50
 SO_TABLE, ATTITUDE_TABLE = 1.3146, 50.536

@@ -15,8 +15,8 @@ import time
 
 from mpi4py import MPI
 
-from solver.bearing import Bearing, FilmModel, Kinematics
-from solver.surface import Surface
+from solver.film.bearing import Bearing, FilmModel, Kinematics
+from solver.film.surface import Surface
 
 
 def measure(rough: bool, repeat: int) -> dict:

@@ -16,9 +16,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from solver.bearing import Kinematics
 from solver.case import load_case
-from solver.simulation import build_joint, engine_from_case
+from solver.dynamics.engine import engine_from_case
+from solver.dynamics.joint import joint_from_case
+from solver.film.bearing import Kinematics
 
 ROOT = Path(__file__).resolve().parents[1]
 STATE = Kinematics(ecc=(-9.4719e-06, 2.1293e-06), ecc_rate=(2.6648e-05, 1.00379e-04), omega_journal=-27.2526,
@@ -32,7 +33,7 @@ def main() -> None:
     rows = []
     for size in SIZES:
         refined = dataclasses.replace(case, solver=dataclasses.replace(case.solver, mesh_size=size))
-        _, model = build_joint(refined, engine, MPI.COMM_SELF, "mixed-fem")
+        _, model = joint_from_case(refined, engine, MPI.COMM_SELF, "mixed-fem")
         with model:
             r = model.solve(STATE)
             rows.append((size, model.dofs, r.hydro_load, r.asperity_load, r.torque_journal, r.p_max))

@@ -27,7 +27,7 @@ from mpi4py import MPI
 import xarray as xr
 from scipy.integrate import simpson
 
-from solver.simulation import run_case
+from solver.study.simulation import run_case
 
 ROOT = Path(__file__).resolve().parents[1]
 

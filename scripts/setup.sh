@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up what is missing on a Debian 12 machine, idempotently: Debian packages (dolfinx, gmsh,
 # PETSc, MPI, xarray, netCDF4, matplotlib, tqdm, scipy, pytest), then a virtual environment .venv made
-# from /usr/bin/python3 with --system-site-packages and this package installed editable.
+# from /usr/bin/python3 with --system-site-packages, this package installed editable and import-linter.
 # The second run only checks and takes a second or two.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,4 +28,10 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
     echo "setup: installing the package (editable)" >&2
     .venv/bin/python3 -m pip install -q --no-build-isolation --no-deps -e . >/dev/null
     touch "$stamp"
+fi
+# import-linter checks the package's layers (tests/test_layers.py); not packaged by Debian 12: from PyPI
+if ! .venv/bin/python3 -c "import importlinter" 2>/dev/null; then
+    echo "setup: installing import-linter (PyPI) into .venv" >&2
+    .venv/bin/python3 -m pip install -q --disable-pip-version-check "import-linter==2.17" 2>&1 | grep -v "^WARNING: Location" >&2 || true
+    .venv/bin/python3 -c "import importlinter"
 fi

@@ -25,6 +25,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from solver.errors import InputError, out_of_range
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
@@ -399,16 +401,6 @@ class Surface:
         """m, composite roughness sqrt(sigma_pin^2 + sigma_bushing^2)."""
         return math.hypot(self.sigma_pin, self.sigma_bushing)
 
-    def models(self):
-        """The same data as a solver.surface.Surface, which builds the roughness and contact models."""
-        from solver.surface import Surface as SurfaceModels
-
-        return SurfaceModels(sigma_journal=self.sigma_pin, sigma_bushing=self.sigma_bushing,
-                             peklenik_gamma=self.peklenik_gamma, eta_beta_sigma=self.eta_beta_sigma,
-                             sigma_over_beta=self.sigma_over_beta, E_journal=self.E_pin, nu_journal=self.nu_pin,
-                             E_bushing=self.E_bushing, nu_bushing=self.nu_bushing, E_composite=self.composite_modulus,
-                             asperity_friction=self.asperity_friction)
-
     @property
     def effective_modulus(self) -> float:
         """Pa, E' with 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 unless given (DESIGN 3.3)."""
@@ -575,3 +567,25 @@ def case_reference_markdown() -> str:
         cells = [f"`{spec.name}`", unit, default, spec.allowed(), spec.doc]
         lines.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def case_attributes(case: Case) -> dict[str, object]:
+    """Every case parameter as ``"section.key"`` in TOML units (netCDF-friendly values)."""
+    attrs: dict[str, object] = {}
+    for spec in FIELDS:
+        holder = case if not spec.section else getattr(case, spec.section)
+        value = getattr(holder, spec.attribute)
+        if value is None:
+            value = "none"
+        elif spec.kind is float:
+            value = float(value) / spec.scale
+        elif spec.kind is list:
+            value = np.array([v / spec.scale for v in value])
+        elif spec.kind is bool:
+            value = "true" if value else "false"
+        elif spec.kind is int:
+            value = int(value)
+        else:
+            value = str(value)
+        attrs[spec.name] = value
+    return attrs

@@ -1,0 +1,86 @@
+"""Command-line interface: ``python3 -m solver <command> ...``.
+
+Each command lives in its own module with two functions, ``add_arguments(parser)`` and
+``run(args, comm) -> int``; this module only dispatches. Bad input of any kind (argparse errors,
+``InputError`` from validation) is reported as one line ``error: ...`` on stderr with exit status 2
+and no traceback. ``MPI.COMM_WORLD`` appears here and in the batch layer only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+from solver import __version__
+from solver.errors import InputError
+
+# command name -> (module, one-line help). Modules are imported lazily so that `--help` and
+# argument errors do not pay for importing dolfinx.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "bearing": ("solver.cli.bearing", "one journal bearing: load at given eccentricity, or equilibrium under a load"),
+    "stribeck": ("solver.cli.stribeck", "friction coefficient against speed at a fixed load (Stribeck curve)"),
+    "engine": ("solver.cli.engine", "the crank-rod-piston engine cycle with ideal joints"),
+    "run": ("solver.cli.run", "one engine operating point with the lubricated small end (case directory)"),
+    "batch": ("solver.cli.batch", "many operating points (case directories or a sweep file) across MPI ranks"),
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one-line InputErrors instead of usage + exit."""
+
+    def error(self, message: str):  # noqa: D102 - argparse API
+        raise InputError(f"{self.prog}: {message}")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python3 -m solver", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log more (debug level)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=_Parser)
+    for name, (module_name, help_text) in COMMANDS.items():
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as err:  # a command not installed in this build
+            if err.name != module_name:
+                raise
+            continue
+        module.add_arguments(sub.add_parser(name, help=help_text, description=help_text))
+    return parser
+
+
+class _RankZeroFilter(logging.Filter):
+    def __init__(self, rank: int):
+        super().__init__()
+        self.rank = rank
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return self.rank == 0
+
+
+def setup_logging(rank: int, verbose: bool) -> None:
+    """Log to stderr on rank 0 only."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.addFilter(_RankZeroFilter(rank))
+    handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger("solver")
+    root.handlers[:] = [handler]
+    root.setLevel(logging.DEBUG if verbose else logging.INFO)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (0 ok, 1 failure, 2 bad input)."""
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    try:
+        args = _parser().parse_args(argv)
+        setup_logging(world.rank, args.verbose)
+        module = importlib.import_module(COMMANDS[args.command][0])
+        return module.run(args, world)
+    except InputError as err:
+        if world.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 2

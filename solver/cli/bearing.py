@@ -1,0 +1,259 @@
+"""``python3 -m solver bearing``: one journal bearing, at a given eccentricity or under a load.
+
+The bushing is fixed and the journal turns at ``--speed`` rpm (counter-clockwise for positive
+speed). The load acts on the journal along the bushing's -y axis ("downwards"); ``--attitude`` places
+the journal centre that many degrees from the load line in the direction of rotation. With
+``--eccentricity-rate`` the journal also moves along the line of centres (pure squeeze if the speed
+is 0). All inputs and outputs are SI except the speed (rpm) and angles (degrees).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+from solver.errors import InputError
+from solver.film.surface import Surface
+from solver.study import io
+
+
+def _number(name: str, low: float | None = None, high: float | None = None, low_open: bool = True,
+            high_open: bool = True, allowed: str = ""):
+    """An argparse type: a finite float inside the given range, else a one-line error naming it."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r} is not a number (allowed: {allowed})") from None
+        ok = math.isfinite(value)
+        if ok and low is not None:
+            ok = value > low if low_open else value >= low
+        if ok and high is not None:
+            ok = value < high if high_open else value <= high
+        if not ok:
+            raise argparse.ArgumentTypeError(f"{name} = {text} is out of range (allowed: {allowed})")
+        return value
+
+    return parse
+
+
+def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
+    """Bearing geometry, oil and inlet (shared with the stribeck command)."""
+    g = parser.add_argument_group("bearing")
+    g.add_argument("--radius", required=True, type=_number("--radius", 0, allowed="> 0 m"), help="journal radius R [m]")
+    g.add_argument("--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]")
+    g.add_argument("--clearance", required=True, type=_number("--clearance", 0, allowed="> 0 m"),
+                   help="radial clearance c [m]")
+    g.add_argument("--viscosity", required=True, type=_number("--viscosity", 0, allowed="> 0 Pa s"),
+                   help="dynamic viscosity [Pa s]")
+    g.add_argument("--speed", type=_number("--speed", allowed="a finite number of rpm"), default=0.0,
+                   help="journal speed [rpm] (bushing fixed; default 0)")
+    g.add_argument("--cavitation-pressure", type=_number("--cavitation-pressure", high=0, high_open=False,
+                                                         allowed="<= 0 Pa gauge"),
+                   default=0.0, help="cavitation pressure [Pa gauge] (default 0)")
+    g.add_argument("--inlet", choices=("max-gap", "none"), default="max-gap",
+                   help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
+                        "assumption, default); none: cavitation alone decides")
+
+
+SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
+    "sigma_journal": ("--sigma-journal", _number("--sigma-journal", 0, low_open=False, allowed=">= 0 m"),
+                      "Rq roughness of the journal [m] (default 0: smooth)"),
+    "sigma_bushing": ("--sigma-bushing", _number("--sigma-bushing", 0, low_open=False, allowed=">= 0 m"),
+                      "Rq roughness of the bushing [m] (default 0: smooth)"),
+    "peklenik_gamma": ("--peklenik-gamma", _number("--peklenik-gamma", 0, allowed="> 0, fits in [1/9, 9]"),
+                       "Peklenik surface pattern parameter (default 1, isotropic)"),
+    "eta_beta_sigma": ("--eta-beta-sigma", _number("--eta-beta-sigma", 0, allowed="> 0"),
+                       "Greenwood-Tripp eta*beta*sigma (default 0.05)"),
+    "sigma_over_beta": ("--sigma-over-beta", _number("--sigma-over-beta", 0, allowed="> 0"),
+                        "Greenwood-Tripp sigma/beta (default 0.001)"),
+    "asperity_density": ("--asperity-density", _number("--asperity-density", 0, allowed="> 0 1/m^2"),
+                         "asperity density eta [1/m^2] (instead of --eta-beta-sigma)"),
+    "asperity_radius": ("--asperity-radius", _number("--asperity-radius", 0, allowed="> 0 m"),
+                        "asperity radius beta [m] (instead of --sigma-over-beta)"),
+    "E_journal": ("--E-journal", _number("--E-journal", 0, allowed="> 0 Pa"), "Young's modulus of the journal [Pa]"),
+    "nu_journal": ("--nu-journal", _number("--nu-journal", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the journal"),
+    "E_bushing": ("--E-bushing", _number("--E-bushing", 0, allowed="> 0 Pa"), "Young's modulus of the bushing [Pa]"),
+    "nu_bushing": ("--nu-bushing", _number("--nu-bushing", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the bushing"),
+    "E_composite": ("--E-composite", _number("--E-composite", 0, allowed="> 0 Pa"),
+                    "composite modulus E' [Pa] (instead of the moduli and Poisson's ratios)"),
+    "asperity_friction": ("--asperity-friction", _number("--asperity-friction", 0, 2, low_open=False, allowed="[0, 2)"),
+                          "asperity friction coefficient (default 0.1)"),
+}
+
+
+def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
+    """Roughness, asperity and material options (solver.film.surface.Surface; defaults: the reference engine)."""
+    g = parser.add_argument_group("surfaces (mixed lubrication; rough when a sigma > 0)")
+    for field, (flag, type_, help_text) in SURFACE_FLAGS.items():
+        g.add_argument(flag, dest=field, type=type_, default=None, help=help_text)
+    g.add_argument("--asperity-model", dest="asperity_model", choices=("exact", "fit"), default=None,
+                   help="F_5/2 by quadrature (exact, default) or the common fit")
+
+
+def surface_from_args(args):
+    """The Surface of the parsed options; errors name the command-line flag."""
+    given = {f: getattr(args, f) for f in (*SURFACE_FLAGS, "asperity_model") if getattr(args, f) is not None}
+    if "asperity_density" in given:
+        given.setdefault("eta_beta_sigma", None)
+    if "asperity_radius" in given:
+        given.setdefault("sigma_over_beta", None)
+    try:
+        return Surface(**given)
+    except InputError as err:
+        message = str(err)
+        for field, (flag, _, _) in SURFACE_FLAGS.items():
+            message = message.replace(field, flag)
+        raise InputError(message.replace("asperity_model", "--asperity-model")) from None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The bearing command's arguments."""
+    add_geometry_arguments(parser)
+    add_surface_arguments(parser)
+    mode = parser.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--eccentricity", type=_number("--eccentricity", 0, 1, low_open=False, allowed="[0, 1)"),
+                      help="eccentricity ratio e/c")
+    mode.add_argument("--load", type=_number("--load", 0, allowed="> 0 N"), help="load on the journal [N]")
+    parser.add_argument("--attitude", type=_number("--attitude", -360, 360, allowed="(-360, 360) deg"),
+                        default=None, help="with --eccentricity: angle of the line of centres from the load line [deg]")
+    parser.add_argument("--eccentricity-rate", type=_number("--eccentricity-rate", allowed="a finite number of 1/s"),
+                        default=0.0, help="d(eps)/dt along the line of centres [1/s] (squeeze)")
+    n = parser.add_argument_group("numerics and output")
+    n.add_argument("--mesh-size", type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1] (element size / R)"),
+                   default=None, help="element size / radius (default 0.05)")
+    n.add_argument("--degree", type=int, choices=(1, 2), default=1, help="pressure element degree (default 1)")
+    n.add_argument("--json", action="store_true", help="print one JSON object")
+    n.add_argument("--output", type=Path, default=None, help="directory for the XDMF field and the PNG pressure map")
+
+
+def _check(args) -> None:
+    if args.clearance >= 0.1 * args.radius:
+        raise InputError(f"--clearance = {args.clearance:g} is out of range (allowed: (0, 0.1 radius) m)")
+    if args.speed == 0 and args.eccentricity_rate == 0:
+        raise InputError("--speed = 0 and --eccentricity-rate = 0: nothing moves (allowed: either non-zero)")
+    if args.load is not None and args.speed == 0:
+        raise InputError("--speed = 0 with --load: a static load needs rotation (allowed: --speed != 0)")
+    if args.attitude is not None and args.eccentricity is None:
+        raise InputError("--attitude goes with --eccentricity (allowed: omit it with --load)")
+    if args.eccentricity is not None and args.eccentricity == 0 and args.eccentricity_rate == 0:
+        pass  # concentric rotation: zero load, still a valid question (friction, flow)
+
+
+def bearing_from_args(args):
+    from solver.film.bearing import Bearing  # dolfinx: after the arguments are checked
+
+    return Bearing(radius=args.radius, width=args.width, clearance=args.clearance, viscosity=args.viscosity,
+                   cavitation_pressure=args.cavitation_pressure, inlet=args.inlet)
+
+
+def run(args, comm) -> int:
+    """Solve and report; returns the exit status."""
+    _check(args)
+    from solver.film.bearing import (  # dolfinx: after the checks
+        DEFAULT_MESH_SIZE,
+        FilmModel,
+        Kinematics,
+        equilibrium,
+    )
+
+    bearing = bearing_from_args(args)
+    surface = surface_from_args(args)
+    omega = args.speed * 2 * math.pi / 60
+    rate = args.eccentricity_rate
+    omega_ref = abs(omega) if omega != 0 else abs(rate)
+    start = time.perf_counter()
+    model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size or DEFAULT_MESH_SIZE,
+                      degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
+                      slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3)
+    setup_time = time.perf_counter() - start
+    c = args.clearance
+    load_angle = -math.pi / 2  # the load acts along -y
+    residual = None
+    if args.load is not None:
+        W = (args.load * math.cos(load_angle), args.load * math.sin(load_angle))
+        eq = equilibrium(model, W, omega_journal=omega)
+        kin, result, newton_iterations, residual = eq.kinematics, eq.result, eq.newton_iterations, eq.force_residual
+    else:
+        sense = 1.0 if omega >= 0 else -1.0
+        angle = load_angle + sense * math.radians(args.attitude or 0.0)
+        direction = (math.cos(angle), math.sin(angle))
+        kin = Kinematics((args.eccentricity * c * direction[0], args.eccentricity * c * direction[1]),
+                         (rate * c * direction[0], rate * c * direction[1]), omega, 0.0)
+        result = model.solve(kin)
+        newton_iterations = result.iterations
+    eps = math.hypot(*kin.ecc) / c
+    load = result.load
+    # Attitude: angle between the load line (opposite the film force) and the line of centres.
+    attitude = float("nan")
+    if eps > 0 and load > 0:
+        load_dir = math.atan2(-result.force[1], -result.force[0])
+        attitude = abs((math.degrees(math.atan2(kin.ecc[1], kin.ecc[0]) - load_dir) + 180.0) % 360.0 - 180.0)
+    psi = c / args.radius
+    speed_for_So = abs(omega) if omega != 0 else abs(rate)
+    So = load * psi**2 / (args.width * 2 * args.radius * args.viscosity * speed_for_So)
+    report = {
+        "load_N": load, "attitude_deg": attitude, "eccentricity": eps, "sommerfeld_So": So,
+        "p_max_Pa": result.p_max, "h_min_m": result.h_min, "friction_torque_Nm": result.torque_journal,
+        "side_flow_m3_per_s": result.side_flow, "dofs": model.dofs, "newton_iterations": newton_iterations,
+        "solve_time_s": time.perf_counter() - start - setup_time,
+        # additions (keys above are the interface)
+        "force_x_N": result.force[0], "force_y_N": result.force[1],
+        "friction_torque_bushing_Nm": result.torque_bushing, "p_max_angle_deg": math.degrees(result.p_max_theta),
+        "p_max_z_m": result.p_max_z, "ecc_x_m": kin.ecc[0], "ecc_y_m": kin.ecc[1],
+        "vi_iterations": result.iterations, "setup_time_s": setup_time,
+        # mixed lubrication
+        "hydro_load_N": result.hydro_load, "asperity_load_N": result.asperity_load,
+        "asperity_share": result.asperity_load / load if load > 0 else 0.0,
+        "contact_area_ratio": result.contact_area_ratio,
+        "friction_coefficient": abs(result.torque_journal) / (args.radius * load) if load > 0 else math.inf,
+        "asperity_friction_torque_Nm": result.asperity_torque_journal,
+        "power_loss_W": abs(result.torque_journal * omega),
+        "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
+    }
+    if residual is not None:
+        report["force_residual_N"] = residual
+    report["attitude_deg"] = None if math.isnan(attitude) else attitude
+    if args.output is not None:
+        out = args.output
+        if comm.rank == 0:
+            out.mkdir(parents=True, exist_ok=True)
+        comm.Barrier()
+        io.write_film_fields(out, "bearing_pressure", model)
+        io.plot_pressure_map(out / "bearing_pressure.png", model,
+                             title=f"eps = {eps:.3f}, load = {load:.4g} N, p_max = {result.p_max / 1e6:.3g} MPa")
+        if comm.rank == 0:
+            io.write_json(out / "bearing.json", report)
+    model.close()
+    if comm.rank == 0:
+        if args.json:
+            print(json.dumps(report))
+        else:
+            _print_table(report, sys.stdout)
+    return 0
+
+
+def _print_table(report: dict, stream) -> None:
+    rows = [
+        ("eccentricity ratio", report["eccentricity"], ""), ("load", report["load_N"], "N"),
+        ("attitude angle", report["attitude_deg"], "deg"), ("Sommerfeld number So", report["sommerfeld_So"], ""),
+        ("peak pressure", report["p_max_Pa"] / 1e6, "MPa"), ("minimum film thickness", report["h_min_m"] * 1e6, "um"),
+        ("friction torque on journal", report["friction_torque_Nm"], "N m"),
+        ("side flow", report["side_flow_m3_per_s"] * 6e4, "l/min"), ("dofs", report["dofs"], ""),
+        ("Newton iterations", report["newton_iterations"], ""), ("solve time", report["solve_time_s"], "s"),
+    ]
+    if "force_residual_N" in report:
+        rows.append(("force residual", report["force_residual_N"], "N"))
+    if report["h_min_over_sigma"] is not None:
+        rows += [("hydrodynamic load", report["hydro_load_N"], "N"), ("asperity load", report["asperity_load_N"], "N"),
+                 ("h_min / sigma", report["h_min_over_sigma"], ""),
+                 ("real contact area ratio", report["contact_area_ratio"], "")]
+    rows += [("friction coefficient", report["friction_coefficient"], ""), ("power loss", report["power_loss_W"], "W")]
+    for label, value, unit in rows:
+        text = "n/a" if value is None else f"{value:14.6g}"
+        print(f"{label:28s} {text:>14s} {unit}", file=stream)

@@ -1,0 +1,270 @@
+"""Clearance-joint laws for the small end: kinematics in, forces and torques (with Jacobians) out.
+
+All three implement ``solver.dynamics.multibody.ClearanceJoint`` (DESIGN 3.1): the arguments are the
+eccentricity ``e'`` of the journal (pin) in the bushing frame [m], its rate ``de'/dt`` in the bushing
+frame [m/s] and the relative speed ``omega_rel = omega_journal - omega_bushing`` [rad/s]; the result is
+the force of the bushing on the journal in the bushing frame, the torques on journal and bushing about
+their centres (counter-clockwise +), and on request the Jacobian ``d[F'_x, F'_y, T_j, T_b] /
+d[e'_x, e'_y, de'_x/dt, de'_y/dt, omega_rel]``.
+
+- ``FilmJoint``: the finite-element mixed-lubrication film (solver.film.bearing.FilmModel): averaged
+  Reynolds equation with VI cavitation, Greenwood-Tripp asperity contact, viscous and asperity
+  friction; its Jacobian is exact with the active set frozen (one factorisation, back-substitutions).
+- ``ShortBearingJoint``: Ocvirk's short-bearing film (Reynolds without the circumferential pressure
+  flow, half-Sommerfeld cavitation) for rotation and squeeze, as most of the literature used.
+- ``DryContactJoint``: Lankarani-Nikravesh contact force with Coulomb friction, no lubricant.
+
+A film solve that fails, or a state outside the clearance (``|e'| >= c`` for the film models), returns
+NaN forces: the implicit integrator then retries the step shorter (solver.dynamics.integrate).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from solver.case import Case
+from solver.dynamics.multibody import ClearanceJoint, JointForces
+from solver.errors import FilmNotConverged, InputError, out_of_range
+from solver.film.surface import Surface
+
+JOINTS = ("mixed-fem", "short-bearing", "dry", "ideal")
+
+_NAN_FORCES = JointForces(np.full(2, np.nan), math.nan, math.nan, np.full((4, 5), np.nan))
+
+
+def _complex_step_jacobian(function, z: np.ndarray) -> np.ndarray:
+    """d function / d z by complex steps: exact to round-off for analytic (branch-free) expressions."""
+    h = 1e-30 * max(1.0, float(np.max(np.abs(z))))
+    columns = []
+    for k in range(z.size):
+        zc = z.astype(complex)
+        zc[k] += 1j * h
+        columns.append(np.imag(function(zc)) / h)
+    return np.column_stack(columns)
+
+
+class FilmJoint(ClearanceJoint):
+    """The finite-element film (and asperity contact) of solver.film.bearing as a clearance joint.
+
+    The film model is built once and reused: each call updates its kinematics and warm-starts the VI.
+    Asking for the Jacobian at the state just solved costs no new solve, and the film results of the
+    last ``CACHE_SIZE`` states are kept (``result_at``), so that post-processing the integrator's
+    output states does not solve the film again. Counters: ``n_solves``, ``n_jacobians``,
+    ``n_failures``.
+    """
+
+    CACHE_SIZE = 512
+
+    def __init__(self, model):
+        self.model = model
+        self._key: tuple | None = None
+        self._result = None
+        self.last_result = None
+        self._cache: dict[tuple, object] = {}
+        self.n_solves = self.n_jacobians = self.n_failures = 0
+
+    def result_at(self, ecc, ecc_rate, omega_rel):
+        """The FilmResult at a state (from the cache, or a new solve); None if the solve fails."""
+        key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
+        if key not in self._cache:
+            self.forces(ecc, ecc_rate, omega_rel, 0.0)
+        return self._cache.get(key)
+
+    def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+        from solver.film.bearing import Kinematics  # dolfinx: a FilmJoint has a film model, so it is loaded
+
+        key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
+        if not all(math.isfinite(v) for v in key):
+            return _NAN_FORCES
+        if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * (1 - 1e-9):
+            return _NAN_FORCES
+        if not jacobian and key != self._key and key in self._cache:
+            # a state solved before (e.g. an output state evaluated again at the start of the next
+            # integration interval): the forces are known, no solve needed
+            r = self._cache[key]
+            self.last_result = r
+            return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
+        try:
+            if key != self._key:
+                self._result = self.model.solve(Kinematics(key[:2], key[2:4], key[4], 0.0))
+                self._key = key
+                self.n_solves += 1
+                self._cache[key] = self._result
+                if len(self._cache) > self.CACHE_SIZE:
+                    del self._cache[next(iter(self._cache))]
+            jac = None
+            if jacobian:
+                jac = self.model.jacobian().matrix
+                self.n_jacobians += 1
+        except (FilmNotConverged, InputError):
+            self.n_failures += 1
+            self._key = None
+            return _NAN_FORCES
+        r = self._result
+        self.last_result = r
+        return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, jac)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ShortBearingJoint(ClearanceJoint):
+    """Ocvirk's short-bearing film, half-Sommerfeld, for rotation and squeeze (bushing frame).
+
+    With ``g(theta) = omega_rel/2 dh/dtheta + dh/dt`` (h = c - e'_x cos - e'_y sin) the short-bearing
+    pressure is ``p = 6 mu g (z^2 - B^2/4) / h^3`` where positive (g < 0), so the force on the journal
+    and the friction torques are integrals over theta (1440 points, exact derivatives by complex steps)::
+
+        F' = mu B^3 R integral_{g<0} g n / h^3 dtheta
+        T_j = -mu R^3 B omega_rel integral dtheta / h + R/2 integral integral p dh/dtheta dtheta dz
+        T_b = +mu R^3 B omega_rel integral dtheta / h + R/2 integral integral p dh/dtheta dtheta dz
+    """
+
+    radius: float  # m
+    width: float  # m
+    clearance: float  # m
+    viscosity: float  # Pa s
+    points: int = 1440
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "width", "clearance", "viscosity"):
+            if not getattr(self, name) > 0:
+                raise out_of_range(name, getattr(self, name), "> 0")
+        object.__setattr__(self, "_theta", (np.arange(self.points) + 0.5) * 2 * math.pi / self.points)
+
+    def _outputs(self, z: np.ndarray) -> np.ndarray:
+        ex, ey, rx, ry, w = z
+        th = self._theta
+        cos, sin = np.cos(th), np.sin(th)
+        h = self.clearance - ex * cos - ey * sin
+        dh = ex * sin - ey * cos  # dh/dtheta
+        g = 0.5 * w * dh - rx * cos - ry * sin
+        active = np.real(g) < 0
+        d = 2 * math.pi / self.points
+        mu, B, R = self.viscosity, self.width, self.radius
+        weight = np.where(active, g / h**3, 0.0)
+        Fx = mu * B**3 * R * np.sum(weight * cos) * d
+        Fy = mu * B**3 * R * np.sum(weight * sin) * d
+        # integral over z of p: -mu B^3 g / h^3 (where g < 0)
+        pressure_moment = 0.5 * R * np.sum(-mu * B**3 * weight * dh) * d
+        couette = mu * R**3 * B * w * np.sum(1.0 / h) * d
+        return np.array([Fx, Fy, -couette + pressure_moment, couette + pressure_moment])
+
+    def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+        z = np.array([ecc[0], ecc[1], ecc_rate[0], ecc_rate[1], omega_rel], dtype=float)
+        if not np.all(np.isfinite(z)) or math.hypot(z[0], z[1]) >= self.clearance * (1 - 1e-9):
+            return _NAN_FORCES
+        out = self._outputs(z)
+        jac = _complex_step_jacobian(self._outputs, z) if jacobian else None
+        return JointForces(out[:2].copy(), float(out[2]), float(out[3]), jac)
+
+
+def hertz_line_stiffness(radius: float, clearance: float, E_journal: float, nu_journal: float, E_bushing: float,
+                         nu_bushing: float) -> float:
+    """Lankarani-Nikravesh stiffness K = (4/3) E* sqrt(R*) of the pin in its bore [N/m^1.5].
+
+    R* = R_j R_b / (R_b - R_j) for the conformal internal contact (R_b = R_j + c), and
+    1/E* = (1 - nu_j^2)/E_j + (1 - nu_b^2)/E_b (Flores et al. 2006 use the same law for revolute
+    clearance joints).
+    """
+    R_b = radius + clearance
+    R_star = radius * R_b / (R_b - radius)
+    E_star = 1 / ((1 - nu_journal**2) / E_journal + (1 - nu_bushing**2) / E_bushing)
+    return 4 / 3 * E_star * math.sqrt(R_star)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class DryContactJoint(ClearanceJoint):
+    """Lankarani-Nikravesh contact with Coulomb friction (no lubricant).
+
+    Penetration ``delta = |e'| - c`` (> 0 in contact), normal ``n = e'/|e'|``; the force of the bushing
+    on the journal is ``-F_n n + F_t t`` with ::
+
+        F_n = K delta^1.5 (1 + 3 (1 - c_e^2) / 4 * d delta/dt / v_impact)
+        F_t = -mu F_n v_t / sqrt(v_t^2 + v_reg^2),   v_t = slip of the journal surface over the bushing
+
+    ``v_impact`` is a fixed reference impact speed (the law must be memoryless here), and the friction
+    is smoothed below ``v_reg``. Torques: the friction force times R on the journal and on the bushing.
+    With the Hertz point-contact stiffness of ``hertz_line_stiffness`` (the usual choice for revolute
+    clearance joints) a pin is soft: under the firing load of the reference engine the penetration
+    reaches ~2 clearances (h_min < 0 in the results means penetration).
+    """
+
+    radius: float  # m
+    clearance: float  # m
+    stiffness: float  # N/m^1.5, K
+    restitution: float = 0.9  # c_e
+    friction: float = 0.1  # mu
+    impact_speed: float = 0.1  # m/s
+    slip_regularisation: float = 1e-3  # m/s
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.restitution <= 1:
+            raise out_of_range("restitution", self.restitution, "[0, 1]")
+        for name in ("radius", "clearance", "stiffness", "impact_speed", "slip_regularisation"):
+            if not getattr(self, name) > 0:
+                raise out_of_range(name, getattr(self, name), "> 0")
+
+    def _outputs(self, z: np.ndarray) -> np.ndarray:
+        ex, ey, rx, ry, w = z
+        e = np.sqrt(ex * ex + ey * ey)
+        if np.real(e) <= self.clearance:
+            return np.zeros(4, dtype=z.dtype)
+        nx, ny = ex / e, ey / e
+        delta = e - self.clearance
+        delta_rate = rx * nx + ry * ny
+        Fn = self.stiffness * delta**1.5 * (1 + 0.75 * (1 - self.restitution**2) * delta_rate / self.impact_speed)
+        # slip of the journal surface at the contact point over the bushing (along t = S n):
+        v_t = self.radius * w + (-rx * ny + ry * nx)
+        Ft = -self.friction * Fn * v_t / np.sqrt(v_t * v_t + self.slip_regularisation**2)
+        Fx, Fy = -Fn * nx - Ft * ny, -Fn * ny + Ft * nx
+        return np.array([Fx, Fy, self.radius * Ft, -self.radius * Ft])
+
+    def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+        z = np.array([ecc[0], ecc[1], ecc_rate[0], ecc_rate[1], omega_rel], dtype=float)
+        if not np.all(np.isfinite(z)):
+            return _NAN_FORCES
+        out = self._outputs(z)
+        jac = _complex_step_jacobian(self._outputs, z) if jacobian else None
+        return JointForces(np.real(out[:2]).copy(), float(np.real(out[2])), float(np.real(out[3])), jac)
+
+
+def joint_from_case(case: Case, engine, comm, joint: str):
+    """The clearance-joint law of the case: (joint, film model or None). ``ideal`` gives (None, None)."""
+    se, oil, surf, solver = case.small_end, case.oil, case.surface, case.solver
+    if joint == "ideal":
+        return None, None
+    if joint == "short-bearing":
+        return ShortBearingJoint(radius=se.pin_radius, width=se.width, clearance=se.clearance,
+                                        viscosity=oil.viscosity), None
+    if joint == "dry":
+        stiffness = hertz_line_stiffness(se.pin_radius, se.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing,
+                                                surf.nu_bushing)
+        return DryContactJoint(radius=se.pin_radius, clearance=se.clearance, stiffness=stiffness,
+                                      restitution=surf.restitution, friction=surf.asperity_friction,
+                                      impact_speed=surf.impact_speed,
+                                      slip_regularisation=solver.slip_regularisation), None
+    if joint != "mixed-fem":
+        raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
+    # dolfinx, PETSc and gmsh come with the film model: imported only when a finite-element joint is built
+    from solver.film.bearing import Bearing, FilmModel
+
+    if oil.inlet == "hole" and not oil.supply_hole_diameter < min(se.width, se.pin_radius):
+        raise InputError(f"oil.supply_hole_diameter_mm = {oil.supply_hole_diameter * 1e3:g} is out of range "
+                         f"(allowed: < min(width, pin radius) = {min(se.width, se.pin_radius) * 1e3:g})")
+    bearing = Bearing(radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity,
+                      cavitation_pressure=oil.cavitation_pressure,
+                      supply_pressure=oil.supply_pressure if oil.inlet == "hole" else 0.0,
+                      supply_hole_angle=oil.supply_hole_angle if oil.inlet == "hole" else None,
+                      supply_hole_diameter=oil.supply_hole_diameter if oil.inlet == "hole" else 0.0,
+                      inlet="max-gap" if oil.inlet == "max-gap" else "none")
+    surface = Surface(sigma_journal=surf.sigma_pin, sigma_bushing=surf.sigma_bushing,
+                      peklenik_gamma=surf.peklenik_gamma, eta_beta_sigma=surf.eta_beta_sigma,
+                      sigma_over_beta=surf.sigma_over_beta, E_journal=surf.E_pin, nu_journal=surf.nu_pin,
+                      E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing, E_composite=surf.composite_modulus,
+                      asperity_friction=surf.asperity_friction)
+    model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
+                      roughness=surface.roughness(), contact=surface.contact(),
+                      slip_regularisation=solver.slip_regularisation)
+    return FilmJoint(model), model

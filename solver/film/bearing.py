@@ -1,0 +1,725 @@
+"""The finite-element film of one journal bearing: kinematics in, forces, friction and flow out (SI).
+
+``FilmModel`` owns the film mesh, the UFL forms (solver.film.reynolds) and the SNES VI (solver.film.cavitation).
+It is built once per bearing and reused across solves: a change of kinematics only updates
+``fem.Constant``s, reassembles the operator and the source, and warm-starts the VI from the last
+pressure. After a solve, ``jacobian()`` gives the exact derivatives of the film forces and torques
+with respect to the eccentricity and its rate (active set frozen), from back-substitutions with one
+factorisation.
+
+Conventions (DESIGN 3.1): everything is expressed in the bushing frame. The eccentricity
+``e' = (e'_x, e'_y)`` is the journal centre minus the bushing centre; ``ecc_rate`` is the time
+derivative of those bushing-frame components (it includes the frame's rotation, see
+``Kinematics.from_global``). Surface speeds relative to the bushing: bushing 0, journal
+``R (omega_journal - omega_bushing)``. The film force on the journal is ``-integral(p n dA)`` with n
+the outward normal of the journal; the bushing carries the opposite force. Friction torques are
+positive counter-clockwise (the direction of increasing theta), about each body's own centre.
+
+Oil inlet (``Bearing.inlet``). ``"max-gap"``: the film is at ambient pressure along the axial line
+of maximum film thickness, where the oil is taken to enter (the assumption of the classic
+finite-bearing tables of Butenschoen 1976 and Raimondi & Boyd 1958); cavitation elsewhere is the VI.
+It is implemented exactly by solving in a frame turned so that the maximum gap lies on the mesh
+seam (theta = 0), where the mesh has nodes, and turning the results back; the Jacobian then
+includes the motion of that line with the eccentricity direction. ``"none"``: only the edges (and a
+supply hole) are at ambient pressure and the VI alone places the film's start and end; on a full
+360 deg bearing this gives attitude angles 1-4 deg larger than the tables at eccentricity <= 0.6
+for the same load.
+
+Equilibrium under a load (``equilibrium``) is found by Newton's method on the two eccentricity
+components with the film's Jacobian.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from dolfinx.la import create_petsc_vector
+from dolfinx.mesh import meshtags
+from ufl.algorithms import expand_derivatives
+
+from solver.errors import InputError, out_of_range
+from solver.film import reynolds as film
+from solver.film.cavitation import CavitatingSolver
+from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
+from solver.film.scaling import FilmScales
+
+
+def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
+    """Local cells that contain any of the given local facets."""
+    connectivity = mesh.topology.connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    return np.concatenate([connectivity.links(int(f)) for f in entities]) if len(entities) else np.zeros(0, np.int32)
+
+log = logging.getLogger(__name__)
+
+INLETS = ("max-gap", "none")
+MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
+STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
+DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Bearing:
+    """Geometry and oil of a plain journal bearing (SI).
+
+    Pressures are gauge pressures relative to the ambient pressure at the bearing edges.
+    """
+
+    radius: float  # m, nominal radius R
+    width: float  # m, bearing width B
+    clearance: float  # m, radial clearance c
+    viscosity: float  # Pa s, dynamic viscosity mu
+    cavitation_pressure: float = 0.0  # Pa gauge, p_cav (<= 0)
+    supply_pressure: float = 0.0  # Pa gauge, pressure in the supply hole (if any)
+    supply_hole_angle: float | None = None  # rad, bushing angle of an oil hole (None: no hole)
+    supply_hole_diameter: float = 0.0  # m
+    inlet: str = "max-gap"  # "max-gap": ambient pressure along the line of maximum film thickness; "none"
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "width", "clearance", "viscosity"):
+            if not getattr(self, name) > 0:
+                raise out_of_range(name, getattr(self, name), "> 0")
+        if not self.clearance < 0.1 * self.radius:
+            raise out_of_range("clearance", self.clearance, f"< 0.1 radius = {0.1 * self.radius:g} m (thin film)")
+        if not self.cavitation_pressure <= 0:
+            raise out_of_range("cavitation_pressure", self.cavitation_pressure, "<= 0 Pa gauge")
+        if self.supply_hole_angle is not None and not 0 < self.supply_hole_diameter < min(self.width, self.radius):
+            raise out_of_range("supply_hole_diameter", self.supply_hole_diameter, "(0, min(width, radius))")
+        if self.inlet not in INLETS:
+            raise out_of_range("inlet", repr(self.inlet), " or ".join(map(repr, INLETS)))
+        if self.inlet == "max-gap" and self.supply_hole_angle is not None:
+            raise InputError("inlet = 'max-gap' cannot be combined with a supply hole (allowed with a hole: 'none')")
+
+
+@dataclasses.dataclass(frozen=True)
+class Kinematics:
+    """Relative kinematics of journal and bushing in the bushing frame (SI)."""
+
+    ecc: tuple[float, float]  # m, journal centre - bushing centre, bushing frame
+    ecc_rate: tuple[float, float] = (0.0, 0.0)  # m/s, d/dt of the bushing-frame components
+    omega_journal: float = 0.0  # rad/s, absolute angular speed of the journal
+    omega_bushing: float = 0.0  # rad/s, absolute angular speed of the bushing
+
+    @staticmethod
+    def from_global(r_journal, v_journal, r_bushing, v_bushing, phi_bushing: float,
+                    omega_journal: float, omega_bushing: float) -> Kinematics:
+        """From global centre positions/velocities: ``e' = A^T e`` and ``de'/dt = A^T de/dt - omega_b S e'``."""
+        c, s = math.cos(phi_bushing), math.sin(phi_bushing)
+        A_T = np.array([[c, s], [-s, c]])
+        e_b = A_T @ (np.asarray(r_journal, float) - np.asarray(r_bushing, float))
+        rate = A_T @ (np.asarray(v_journal, float) - np.asarray(v_bushing, float)) - omega_bushing * np.array([-e_b[1], e_b[0]])
+        return Kinematics((float(e_b[0]), float(e_b[1])), (float(rate[0]), float(rate[1])), omega_journal, omega_bushing)
+
+
+@dataclasses.dataclass(frozen=True)
+class FilmResult:
+    """Results of one film solve (SI, bushing frame).
+
+    Forces act on the journal (the bushing carries the opposite); torques are about each body's own
+    centre, counter-clockwise positive. ``force`` and the ``torque_*`` totals include asperity
+    contact; without a contact model its parts are zero.
+    """
+
+    force: tuple[float, float]  # N, total (film + asperity) force on the journal
+    hydro_force: tuple[float, float]  # N, film pressure force on the journal
+    asperity_force: tuple[float, float]  # N, asperity contact force on the journal
+    p_max: float  # Pa gauge, peak film pressure
+    p_max_theta: float  # rad, bushing angle of the peak
+    p_max_z: float  # m, axial position of the peak (0 = mid-width)
+    h_min: float  # m, minimum film thickness
+    torque_journal: float  # N m, friction torque on the journal (viscous + asperity)
+    torque_bushing: float  # N m, friction torque on the bushing (viscous + asperity)
+    asperity_torque_journal: float  # N m, asperity part of torque_journal (friction + moment of the normal forces)
+    asperity_normal_force: float  # N, integral of p_c over the surface (what asperity friction acts on)
+    contact_area_ratio: float  # real contact area / nominal bearing area
+    asperity_p_max: float  # Pa, peak asperity contact pressure (at h_min)
+    side_flow: float  # m^3/s, flow out of both edges (Poiseuille, positive outward)
+    iterations: int  # Newton (VI) iterations
+    solve_time: float  # s, wall time of the solve (assembly + VI)
+    sigma: float = 0.0  # m, composite roughness (0: smooth)
+
+    @property
+    def load(self) -> float:
+        """|force| [N]: the load carried by film and asperities together."""
+        return math.hypot(*self.force)
+
+    @property
+    def hydro_load(self) -> float:
+        return math.hypot(*self.hydro_force)
+
+    @property
+    def asperity_load(self) -> float:
+        return math.hypot(*self.asperity_force)
+
+    @property
+    def h_min_over_sigma(self) -> float:
+        return self.h_min / self.sigma if self.sigma > 0 else math.inf
+
+
+@dataclasses.dataclass(frozen=True)
+class FilmJacobian:
+    """d(output)/d(input) at the last solution, active set frozen (SI).
+
+    Rows: total force_x, force_y, torque_journal, torque_bushing. Columns: ecc_x, ecc_y (per m),
+    ecc_rate_x, ecc_rate_y (per m/s), omega_journal - omega_bushing (per rad/s).
+    """
+
+    matrix: np.ndarray  # (4, 5)
+
+    @property
+    def force_ecc(self) -> np.ndarray:
+        return self.matrix[:2, :2]
+
+
+# Rows of the Jacobian and how the model's functionals add up to them.
+_JACOBIAN_ROWS = ("force_x", "force_y", "torque_journal", "torque_bushing")
+
+
+class FilmModel:
+    """Finite-element film of one bearing, reused across solves (see module docstring).
+
+    Args:
+        bearing: geometry and oil.
+        comm: communicator of the mesh and solver (never COMM_WORLD implicitly).
+        omega_ref: reference angular speed of the scaling [rad/s].
+        mesh_size: element size / R.
+        degree: polynomial degree of the pressure (1 or 2).
+        roughness: Patir-Cheng flow factors (solver.film.flow_factors.PatirCheng); None: smooth film.
+        contact: Greenwood-Tripp asperity contact (solver.film.contact.GreenwoodTripp); None: no contact.
+        slip_regularisation: sliding speed [m/s] below which asperity friction is smoothed to zero.
+        options: PETSc options over solver.film.cavitation.DEFAULT_OPTIONS.
+        half: solve the half z >= 0 of the film (it is symmetric about the mid-plane); False meshes
+            the whole width (same results to the discretisation error, twice the unknowns).
+    """
+
+    def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float = DEFAULT_MESH_SIZE,
+                 degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
+                 options: dict | None = None, half: bool = True):
+        self.bearing = bearing
+        self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
+                                 omega_ref=omega_ref)
+        if degree not in (1, 2):
+            raise out_of_range("degree", degree, "1 or 2")
+        sigmas = [x.sigma for x in (roughness, contact) if x is not None]
+        if sigmas and not math.isclose(min(sigmas), max(sigmas), rel_tol=1e-12):
+            raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
+        self.sigma = sigmas[0] if sigmas else 0.0
+        R = bearing.radius
+        hole = None
+        if bearing.supply_hole_angle is not None:
+            hole = SupplyHole(angle=bearing.supply_hole_angle, diameter=bearing.supply_hole_diameter / R)
+        # aligned surfaces, edges at the same pressure, a hole on the mid-plane: the film is symmetric
+        # about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and every
+        # integral over the film is doubled (solver.film.mesh)
+        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=half)
+        self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
+        self.comm = self.mesh.comm
+        self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
+        self.P = fem.Function(self.V, name="pressure")
+        self.params = film.FilmParameters(self.mesh)
+        self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
+        self.geometry = film.FilmGeometry(self.mesh, self.params)
+        self.roughness, self.contact = roughness, contact
+        self.slip_regularisation = slip_regularisation
+        self._build_forms()
+        self._owned_cells = np.arange(self.mesh.topology.index_map(2).size_local, dtype=np.int32)
+        x = self.mesh.geometry.x[self.mesh.geometry.dofmap.array.reshape(-1, 3)[: len(self._owned_cells)]]
+        angle = np.arctan2(x[..., 1], x[..., 0])
+        self._vertex_cos, self._vertex_sin = np.cos(angle), np.sin(angle)
+        spread = np.ptp(np.unwrap(angle, axis=1), axis=1)
+        self._cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
+        self.bcs = self._boundary_conditions()
+        self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
+                                       lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
+        self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
+        self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
+        self._last: Kinematics | None = None
+
+    # -- setup ----------------------------------------------------------------------------------
+    def _build_forms(self) -> None:
+        g, P, s = self.geometry, self.P, self.scales
+        v, dP = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        # The coefficients (H^3, flow factors, sqrt in theta) would make UFL pick a very high
+        # quadrature degree; they are smooth on an element, so degree 2k - 1 (the midpoint rule for
+        # P1) keeps the discretisation error of order h^2: at the engine's hardest state the film
+        # load on the default mesh is 0.1 % from converged (0.8 % with degree 2k), at 2.5 x less
+        # assembly time (bench/film_mesh_convergence.py). The hydrodynamic forces and the pressure
+        # part of the viscous torques take degree 2k: the film's moment balance (T_j + T_b + e x F
+        # = 0) rests on an integration by parts between them that only a more accurate rule keeps
+        # to 1e-5.
+        k = self.V.ufl_element().degree()
+        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k - 1})
+        dx_moment = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 2 * k})
+        # functionals are evaluated per group: (measure, only on the cells where asperities touch)
+        groups = {"film": (dx, False), "moment": (dx_moment, False), "contact": (dx, True)}
+        whole = float(self.mesh_spec.multiplicity)  # integrals over the whole film / over the mesh
+        residual = film.reynolds_integrand(P, v, g, self.roughness)
+        self._a = fem.form(ufl.derivative(residual * dx, P, dP))
+        self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
+        couette_j, couette_b, pressure_part = film.shear_traction_integrands(P, g, self.roughness)
+        # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, group)
+        self._outputs = {
+            "hydro_x": (-P * g.normal[0], whole * s.force, "force_x", "moment"),
+            "hydro_y": (-P * g.normal[1], whole * s.force, "force_y", "moment"),
+            "viscous_couette_journal": (couette_j, whole * s.shear_torque, "torque_journal", "film"),
+            "viscous_couette_bushing": (couette_b, whole * s.shear_torque, "torque_bushing", "film"),
+            "viscous_pressure_journal": (pressure_part, whole * s.shear_torque, "torque_journal", "moment"),
+            "viscous_pressure_bushing": (pressure_part, whole * s.shear_torque, "torque_bushing", "moment"),
+        }
+        extra = {}
+        if self.contact is not None:
+            slip_reg = self.slip_regularisation / s.speed
+            P_c, tau_c, area = film.asperity_integrands(g, self.contact, s.pressure, slip_reg)
+            torque_scale = whole * s.pressure * self.bearing.radius**3
+            self._outputs.update({
+                "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", "contact"),
+                "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", "contact"),
+                # the contact normals pass through the bushing centre, so on the journal they have the
+                # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
+                "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
+                                            * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
+                                            torque_scale, "torque_journal", "contact"),
+                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", "contact"),
+            })
+            extra = {"contact_area": whole * area, "asperity_normal": whole * P_c}
+        self._extra_names = list(extra)
+        # Hydrodynamic forces are linear in P with weights independent of the kinematics: g_i . P.
+        self._force_vectors = {}
+        for name in ("hydro_x", "hydro_y"):
+            integrand, _, _, group = self._outputs[name]
+            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(integrand * groups[group][0], P, v)))
+            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._force_vectors[name] = vec
+        # All other functionals of a solve in one pass over the cells per group.
+        scalars = {name: (e, group) for name, (e, _, _, group) in self._outputs.items() if name not in self._force_vectors}
+        scalars.update({name: (e, "contact") for name, e in extra.items()})
+        self._scalars = _functionals_by_group(self.mesh, scalars, groups)
+        variables = list(g.variables().values())
+        # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
+        # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
+        dr_integrands = [(ufl.diff(residual, var), dx) for var in variables]
+        explicit: dict[tuple[int, int, str], tuple[object, str]] = {}
+        gradients: list[tuple[int, object, object]] = []
+        for i, row in enumerate(_JACOBIAN_ROWS):
+            for group, (measure, _) in groups.items():
+                members = [(name, e, scale) for name, (e, scale, r, gr) in self._outputs.items()
+                           if r == row and gr == group and name not in self._force_vectors]
+                if not members:  # (smooth film: hydrodynamic forces only)
+                    continue
+                combined = sum(scale * e for _, e, scale in members)
+                for j, var in enumerate(variables):
+                    if not _is_zero(ufl.diff(combined, var)):
+                        explicit[(i, j, group)] = (ufl.diff(combined, var), group)
+                gradient = ufl.derivative(combined, P, v)
+                if not _is_zero(gradient):  # dE/dP != 0: the pressure part of the viscous torques
+                    gradients.append((i, gradient, measure))
+        # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
+        self._n_inputs = len(variables)
+        self._gradient_rows = [i for i, _, _ in gradients]
+        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients])
+        self._explicit = _functionals_by_group(self.mesh, explicit, groups)
+        # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
+        self._edge_indicator = fem.Function(self.V)
+        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        edge_dofs = fem.locate_dofs_topological(self.V, 1, edges)
+        self._edge_indicator.x.array[edge_dofs] = 1.0
+        # w vanishes outside the cells that touch an edge: integrate over those cells only.
+        self.mesh.topology.create_connectivity(1, 2)
+        edge_cells = np.unique(mesh_entities_to_cells(self.mesh, edges))
+        cell_marker = meshtags(self.mesh, 2, edge_cells.astype(np.int32), np.ones(len(edge_cells), dtype=np.int32))
+        dx_edge = ufl.dx(domain=self.mesh, subdomain_data=cell_marker, subdomain_id=1, metadata=dx.metadata())
+        self._side_flow_form = fem.form(whole * ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
+
+    def _boundary_conditions(self) -> list:
+        fdim = 1
+        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        ambient = fem.Function(self.V)
+        bcs = [fem.dirichletbc(ambient, fem.locate_dofs_topological(self.V, fdim, edges))]
+        if self.bearing.inlet == "max-gap":  # the seam, theta = 0 (solver.film.mesh), at ambient pressure
+            x = self.V.tabulate_dof_coordinates()
+            seam = np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32)
+            bcs.append(fem.dirichletbc(ambient, seam))
+        if self.bearing.supply_hole_angle is not None:
+            supply = fem.Function(self.V)
+            supply.x.array[:] = self.bearing.supply_pressure / self.scales.pressure
+            cells = self.cell_tags.find(TAGS["supply"])
+            bcs.append(fem.dirichletbc(supply, fem.locate_dofs_topological(self.V, 2, cells)))
+        return bcs
+
+    @property
+    def dofs(self) -> int:
+        """Global number of pressure unknowns."""
+        return self._dofs
+
+    # -- solve ----------------------------------------------------------------------------------
+    def set_kinematics(self, kin: Kinematics) -> None:
+        """Update the film's constants from SI kinematics (bushing frame)."""
+        s, c = self.scales, self.bearing.clearance
+        eps = np.asarray(kin.ecc, float) / c
+        if not math.hypot(*eps) < 1.0:
+            raise out_of_range("eccentricity ratio", f"{math.hypot(*eps):.6g}", "[0, 1)")
+        rate = np.asarray(kin.ecc_rate, float) / s.eccentricity_rate
+        U2 = self.bearing.radius * (kin.omega_journal - kin.omega_bushing) / s.speed  # journal, bushing frame
+        U1 = 0.0
+        self.params.set(eps_x=eps[0], eps_y=eps[1], deps_x=rate[0], deps_y=rate[1],
+                        U_mean=(U1 + U2) / 2, U_half_diff=(U1 - U2) / 2)
+
+    def _frame_angle(self, kin: Kinematics) -> float:
+        """Angle beta by which the solution frame is turned from the bushing frame.
+
+        With the max-gap inlet the maximum gap (opposite the eccentricity, or opposite the squeeze
+        velocity when concentric) is put on the seam at theta = 0; otherwise beta = 0.
+        """
+        if self.bearing.inlet != "max-gap":
+            return 0.0
+        e, rate = np.asarray(kin.ecc), np.asarray(kin.ecc_rate)
+        if np.linalg.norm(e) > 1e-9 * self.bearing.clearance:
+            return math.atan2(e[1], e[0]) + math.pi
+        if np.linalg.norm(rate) > 0:
+            return math.atan2(rate[1], rate[0]) + math.pi
+        return 0.0
+
+    def solve(self, kin: Kinematics) -> FilmResult:
+        """Solve the film for the given kinematics (warm start from the last pressure)."""
+        start = time.perf_counter()
+        beta = self._frame_angle(kin)
+        rot = _rotation(-beta)
+        solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
+        self.set_kinematics(solved)
+        self.solver.update()
+        iterations = self.solver.solve()
+        self._last, self._beta = kin, beta
+        self._in_contact = self._contact_cells()  # for the functionals and the Jacobian of this state
+        values = self._functionals()
+        s = self.scales
+        p_max, theta, z = self._pressure_peak()
+        back = _rotation(beta)
+        self._force_solved = np.array([values["force_x"], values["force_y"]])
+        hydro = back @ np.array([values["hydro_x"], values["hydro_y"]])
+        asperity = back @ np.array([values.get("asperity_x", 0.0), values.get("asperity_y", 0.0)])
+        h_min = self.bearing.clearance - math.hypot(*kin.ecc)
+        contact_area = asperity_normal = asperity_p_max = 0.0
+        if self.contact is not None:
+            asperity_normal = values["asperity_normal"] * s.force
+            contact_area = values["contact_area"] / (2 * math.pi * self.mesh_spec.width)
+            asperity_p_max = float(self.contact.pressure(np.array([h_min / self.sigma]))[0])
+        return FilmResult(
+            force=(float(hydro[0] + asperity[0]), float(hydro[1] + asperity[1])),
+            hydro_force=(float(hydro[0]), float(hydro[1])), asperity_force=(float(asperity[0]), float(asperity[1])),
+            p_max=p_max * s.pressure, p_max_theta=(theta + beta) % (2 * math.pi), p_max_z=z * self.bearing.radius,
+            h_min=h_min, torque_journal=values["torque_journal"], torque_bushing=values["torque_bushing"],
+            asperity_torque_journal=values.get("asperity_torque_journal", 0.0),
+            asperity_normal_force=asperity_normal, contact_area_ratio=contact_area, asperity_p_max=asperity_p_max,
+            side_flow=-self._assemble(self._side_flow_form) * s.flow,
+            iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma)
+
+    def _contact_cells(self) -> np.ndarray:
+        """Owned cells where the asperity pressure can be non-zero at a quadrature point.
+
+        Greenwood-Tripp's pressure and contact area vanish exactly for h/sigma >= contact.support;
+        a cell is kept when the film thickness at one of its vertices is below that plus the most it
+        can fall toward the cell's interior (|eps| times the cell's angular extent).
+        """
+        if self.contact is None:
+            return np.zeros(0, dtype=np.int32)
+        eps_x, eps_y = float(self.params.eps_x.value), float(self.params.eps_y.value)
+        H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin  # (cells, 3)
+        limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
+        return self._owned_cells[H.min(axis=1) < limit]
+
+    def _integrate(self, functionals: QuadratureFunctionals) -> np.ndarray:
+        """A group of functionals at the last solved state (contact groups on its contact cells only)."""
+        return functionals(self._in_contact if functionals.contact_only else None)
+
+    def _assemble(self, form) -> float:
+        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+    def _functionals(self) -> dict[str, float]:
+        """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
+        raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
+        for names, functionals in self._scalars:
+            raw.update(zip(names, self._integrate(functionals)))
+        values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}
+        values.update({k: raw[k] for k in self._extra_names})
+        for row in _JACOBIAN_ROWS:
+            values[row] = sum(values[k] for k, (_, _, r, _) in self._outputs.items() if r == row)
+        return values
+
+    def _pressure_peak(self) -> tuple[float, float, float]:
+        """(P_max, theta, Z) over the dofs, reduced over ranks."""
+        coords = self._owned_coords
+        n_owned = len(coords)
+        values = self.P.x.array[:n_owned]
+        if n_owned:
+            i = int(np.argmax(values))
+            local = (float(values[i]), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi), float(coords[i, 2]))
+        else:
+            local = (-math.inf, 0.0, 0.0)
+        return max(self.comm.allgather(local))
+
+    def jacobian(self) -> FilmJacobian:
+        """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y, omega_rel), SI."""
+        if self._last is None:
+            raise RuntimeError("jacobian() needs a solve() first")
+        vectors = self._jacobian_vectors()
+        dr, gradients = vectors[: self._n_inputs], vectors[self._n_inputs :]
+        for vec in dr:
+            fem_petsc.set_bc(vec, self.bcs, scale=0.0)
+        dP = self.solver.sensitivities(dr)
+        s = self.scales
+        # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
+        J = np.zeros((4, self._n_inputs))
+        for keys, functionals in self._explicit:
+            for (i, j, _), value in zip(keys, self._integrate(functionals)):
+                J[i, j] += value
+        for i, row in enumerate(_JACOBIAN_ROWS):
+            for name, (_, scale, r, _) in self._outputs.items():
+                if r == row and name in self._force_vectors:
+                    J[i] += scale * np.array([self._force_vectors[name].dot(d) for d in dP])
+        for i, gradient in zip(self._gradient_rows, gradients):
+            J[i] += np.array([gradient.dot(d) for d in dP])
+        for vec in dP:
+            vec.destroy()
+        # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.
+        J = np.column_stack([J[:, :4], (J[:, 4] - J[:, 5]) / (2 * s.omega_ref)])
+        if self.bearing.inlet == "max-gap" and math.hypot(*self._last.ecc) > 1e-9 * self.bearing.clearance:
+            # In the solution frame the eccentricity is (-a, 0) and turning it (d eps'_y = -a dphi)
+            # turns the inlet line with it. Turning eps and its rate together is a symmetry
+            # (F -> S F dphi, M unchanged), so at fixed rate:
+            # dF/dphi = S F' - J'_rate S deps',  dM/dphi = -J'_M,rate S deps'.
+            a = math.hypot(*self._last.ecc) / self.bearing.clearance
+            S = np.array([[0.0, -1.0], [1.0, 0.0]])
+            rate = _rotation(-self._beta) @ np.asarray(self._last.ecc_rate) / s.eccentricity_rate
+            d_dphi = -J[:, 2:4] @ (S @ rate)
+            d_dphi[:2] += S @ self._force_solved
+            J[:, 1] = d_dphi / (-a)
+        rot, rot_back = _rotation(self._beta), _rotation(-self._beta)
+        J[:2, :2] = rot @ J[:2, :2] @ rot_back
+        J[:2, 2:4] = rot @ J[:2, 2:4] @ rot_back
+        J[:2, 4] = rot @ J[:2, 4]
+        J[2:, :2] = J[2:, :2] @ rot_back
+        J[2:, 2:4] = J[2:, 2:4] @ rot_back
+        in_scale = np.array([self.bearing.clearance] * 2 + [s.eccentricity_rate] * 2 + [1.0])[None, :]
+        return FilmJacobian(J / in_scale)
+
+    # -- fields ---------------------------------------------------------------------------------
+    def fields_si(self) -> dict[str, fem.Function]:
+        """Pressure [Pa] and film thickness [m] as Functions on the film mesh (for output)."""
+        p = fem.Function(self.V, name="pressure_Pa")
+        p.x.array[:] = self.P.x.array * self.scales.pressure
+        h = fem.Function(self.V, name="film_thickness_m")
+        h.interpolate(fem.Expression(self.geometry.H * self.bearing.clearance, self.V.element.interpolation_points()))
+        fields = {"pressure": p, "film_thickness": h}
+        if self.contact is not None:
+            pc = fem.Function(self.V, name="asperity_pressure_Pa")
+            Hs = self.geometry.H / self.params.S
+            pc.interpolate(fem.Expression(self.contact.pressure(Hs, mod=ufl), self.V.element.interpolation_points()))
+            fields["asperity_pressure"] = pc
+        return fields
+
+    def close(self) -> None:
+        self.solver.close()
+        self._jacobian_vectors.close()
+        for vec in self._force_vectors.values():
+            vec.destroy()
+
+    def __enter__(self) -> FilmModel:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class BlockedVectors:
+    """Several linear forms in the test function of a scalar space, assembled in one pass.
+
+    ``integrands`` are (integrand, measure) pairs; integrands of the same measure share one kernel.
+
+    The integrands become the components of one form in the blocked (vector) space of the same
+    element, so the kernel computes their common subexpressions (film thickness, flow factors) once
+    per quadrature point instead of once per form; the components are then copied into vectors of
+    the scalar space (reused between calls: do not keep them across calls).
+    """
+
+    def __init__(self, V, v, integrands: list[tuple[object, object]]):
+        element = V.ufl_element()
+        self.size = len(integrands)
+        blocked = fem.VectorFunctionSpace(V.mesh, (element.family(), element.degree()), dim=self.size)
+        w = ufl.TestFunction(blocked)
+        self.form = fem.form(sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands)))
+        self.blocked = fem_petsc.create_vector(self.form)
+        n_owned = V.dofmap.index_map.size_local
+        if blocked.dofmap.index_map.size_local != n_owned:
+            raise RuntimeError("blocked space distributed differently from the scalar space")
+        # node k of the blocked space carries the values of scalar dof order[k] (the same nodes,
+        # possibly numbered differently)
+        scalar_x = np.round(V.tabulate_dof_coordinates()[:n_owned], 12)
+        blocked_x = np.round(blocked.tabulate_dof_coordinates()[:n_owned], 12)
+        by_scalar, by_blocked = np.lexsort(scalar_x.T), np.lexsort(blocked_x.T)
+        self.order = np.empty(n_owned, dtype=np.int64)
+        self.order[by_blocked] = by_scalar
+        if not np.allclose(scalar_x[self.order], blocked_x, atol=1e-10):
+            raise RuntimeError("the blocked space's nodes differ from the scalar space's")
+        self.vectors = [create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs) for _ in integrands]
+
+    def __call__(self) -> list[PETSc.Vec]:
+        with self.blocked.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self.blocked, self.form)
+        self.blocked.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = self.blocked.getArray(readonly=True).reshape(-1, self.size)
+        for i, vec in enumerate(self.vectors):
+            vec.getArray()[self.order] = values[:, i]
+            vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self.vectors
+
+    def close(self) -> None:
+        for vec in [self.blocked, *self.vectors]:
+            vec.destroy()
+
+
+class QuadratureFunctionals:
+    """Many integrals over one mesh in one pass: a vector-valued ``fem.Expression`` of the integrands
+    (times the area element) at the quadrature points of every owned cell, summed with the weights.
+
+    Equivalent to assembling each scalar form (same quadrature rule as FFCx's default of that
+    degree), but one kernel call instead of one assembly per functional, which matters when a film
+    solve needs ~10 of them.
+    """
+
+    def __init__(self, mesh, integrands: list, degree: int, *, contact_only: bool = False):
+        import basix
+
+        points, self.weights = basix.make_quadrature(basix.CellType.triangle, degree)
+        self.contact_only = contact_only  # evaluated only on the cells that FilmModel._contact_cells gives
+        area = abs(ufl.JacobianDeterminant(mesh))
+        self.size = len(integrands)
+        self.expression = fem.Expression(ufl.as_vector([e * area for e in integrands]), points)
+        self.cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
+        self.comm = mesh.comm
+
+    def __call__(self, cells: np.ndarray | None = None) -> np.ndarray:
+        """The integrals over the owned cells, or over ``cells`` (where the others contribute 0)."""
+        cells = self.cells if cells is None else cells
+        local = np.zeros(self.size)
+        if len(cells):
+            values = self.expression.eval(cells).reshape(len(cells), len(self.weights), self.size)
+            local = np.einsum("cqn,q->n", values, self.weights)
+        return self.comm.allreduce(local, op=MPI.SUM)
+
+
+def _functionals_by_group(mesh, integrands: dict, groups: dict) -> list[tuple[list, QuadratureFunctionals]]:
+    """``{key: (integrand, group)}`` -> [(keys, QuadratureFunctionals)], one per group of ``groups``
+    (``{group: (measure, contact_only)}``) that has integrands."""
+    members: dict[str, list] = {}
+    for key, (e, group) in integrands.items():
+        members.setdefault(group, []).append((key, e))
+    out = []
+    for group, items in members.items():
+        measure, contact_only = groups[group]
+        functionals = QuadratureFunctionals(mesh, [e for _, e in items], measure.metadata()["quadrature_degree"],
+                                            contact_only=contact_only)
+        out.append(([key for key, _ in items], functionals))
+    return out
+
+
+def _is_zero(expression) -> bool:
+    """True when a UFL derivative is identically zero (such forms are not assembled)."""
+    try:
+        return isinstance(expand_derivatives(expression), ufl.constantvalue.Zero)
+    except Exception:  # noqa: BLE001 - UFL cannot always simplify; then assume non-zero
+        return False
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+@dataclasses.dataclass(frozen=True)
+class Equilibrium:
+    """Static equilibrium of the journal under a load."""
+
+    kinematics: Kinematics
+    result: FilmResult
+    newton_iterations: int
+    force_residual: float  # N, |film force + load| at the solution
+
+
+def equilibrium(model: FilmModel, load: tuple[float, float], *, omega_journal: float, omega_bushing: float = 0.0,
+                tol: float = 1e-7, max_iterations: int = 60, guess: tuple[float, float] | None = None) -> Equilibrium:
+    """Find the eccentricity at which the film (and asperity) force balances the load on the journal.
+
+    Newton's method with the film's exact Jacobian, in the coordinates ``s = -ln(1 - eps)`` and the
+    angle ``phi`` of the eccentricity: near eps = 1 the film force grows like (1 - eps)^-2 and the
+    asperity force exponentially in h/sigma, both far more linear in s than in eps. Each step is
+    halved until the force residual decreases.
+
+    Args:
+        load: external load on the journal, bushing frame [N].
+        tol: relative tolerance on the force residual, |F + W| <= tol |W|.
+        guess: starting eccentricity [m]; default eps = 0.5, 50 deg ahead of the load line.
+
+    Raises:
+        InputError: the load cannot be carried below MAX_ECCENTRICITY, or Newton's method stalls.
+    """
+    W = np.asarray(load, float)
+    W_norm = float(np.linalg.norm(W))
+    if not W_norm > 0:
+        raise out_of_range("load", W_norm, "> 0 N")
+    c = model.bearing.clearance
+    s_max = -math.log(1 - MAX_ECCENTRICITY)
+    if guess is None:
+        angle = math.atan2(W[1], W[0]) + math.copysign(math.radians(50), omega_journal - omega_bushing or 1.0)
+        guess = (0.5 * c * math.cos(angle), 0.5 * c * math.sin(angle))
+    eps0 = min(max(math.hypot(*guess) / c, 1e-3), MAX_ECCENTRICITY)
+    x = np.array([-math.log(1 - eps0), math.atan2(guess[1], guess[0])])  # (s, phi)
+
+    def ecc(x_vec):
+        eps = 1 - math.exp(-x_vec[0])
+        return eps, c * eps * np.array([math.cos(x_vec[1]), math.sin(x_vec[1])])
+
+    def residual(x_vec):
+        _, e_vec = ecc(x_vec)
+        kin = Kinematics((float(e_vec[0]), float(e_vec[1])), (0.0, 0.0), omega_journal, omega_bushing)
+        res = model.solve(kin)
+        return kin, res, np.asarray(res.force) + W
+
+    kin, res, r = residual(x)
+    for iteration in range(max_iterations):
+        if np.linalg.norm(r) <= tol * W_norm:
+            return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
+        eps, _ = ecc(x)
+        # d e / d(s, phi) = c [(1 - eps) u, eps u_perp]
+        u, u_perp = np.array([math.cos(x[1]), math.sin(x[1])]), np.array([-math.sin(x[1]), math.cos(x[1])])
+        J = model.jacobian().force_ecc @ (c * np.column_stack([(1 - eps) * u, eps * u_perp]))
+        step = -np.linalg.solve(J, r)
+        lam = 1.0
+        while True:
+            trial = x + lam * step
+            trial[0] = min(max(trial[0], 1e-4), s_max)
+            kin_t, res_t, r_t = residual(trial)
+            if np.linalg.norm(r_t) < np.linalg.norm(r):
+                break
+            lam *= 0.5
+            if lam < 1e-3:
+                if x[0] >= s_max * (1 - 1e-9) and np.dot(res.force, W) < 0 and res.load < W_norm:
+                    raise InputError(f"load = {W_norm:g} N cannot be carried (eccentricity ratio reaches "
+                                     f"{MAX_ECCENTRICITY})")
+                # The discrete VI force is only piecewise smooth (the active set moves node by node);
+                # very near eps = 1 its kinks put a floor of ~1e-4 |W| under the residual.
+                if np.linalg.norm(r) <= STALL_TOLERANCE * W_norm:
+                    return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
+                raise InputError(f"load = {W_norm:g} N: the equilibrium search stalled at eccentricity ratio "
+                                 f"{eps:.6f} (residual {np.linalg.norm(r):.3g} N)")
+        x, kin, res, r = trial, kin_t, res_t, r_t
+    raise InputError(f"load = {W_norm:g} N: no equilibrium found in {max_iterations} Newton iterations")

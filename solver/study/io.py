@@ -1,0 +1,178 @@
+"""Files: ParaView fields (XDMF), PNG plots, netCDF results. The only module that writes files.
+
+Every file is written under a temporary name (or in a temporary directory) and renamed into place,
+so an interrupted run never leaves a half-written file behind. Collective functions take the
+communicator from the mesh; only rank 0 writes plots.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+
+def subplots(*args, figsize, constrained_layout: bool = False, **kwargs):
+    """(figure, axes) of a new Agg figure: no pyplot, so no global state and no display needed."""
+    figure = Figure(figsize=figsize, constrained_layout=constrained_layout)
+    return figure, figure.subplots(*args, **kwargs)
+
+
+@contextlib.contextmanager
+def atomic_path(path: Path):
+    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds."""
+    path = Path(path)
+    part = path.with_name(f".{path.name}.part")
+    try:
+        yield part
+        os.replace(part, path)
+    finally:
+        if part.exists():
+            part.unlink()
+
+
+def _rotation_z(x: np.ndarray, angle: float) -> None:
+    c, s = math.cos(angle), math.sin(angle)
+    x0 = x[:, 0].copy()
+    x[:, 0] = c * x0 - s * x[:, 1]
+    x[:, 1] = s * x0 + c * x[:, 1]
+
+
+def write_film_fields(directory: Path, name: str, model, times: list[float] | None = None) -> Path:
+    """Write the film's pressure [Pa] and thickness [m] to ``directory/name.xdmf`` (+ ``.h5``).
+
+    The mesh is written in metres in the bushing frame (the solution frame turned back, see
+    solver.film.bearing). Collective on the model's communicator.
+    """
+    from dolfinx.io import XDMFFile  # dolfinx only for the fields: the plots and netCDF do not need it
+
+    directory = Path(directory)
+    comm = model.comm
+    tmp = comm.bcast(tempfile.mkdtemp(prefix=".fields-", dir=directory) if comm.rank == 0 else None, root=0)
+    fields = model.fields_si()
+    x = model.mesh.geometry.x
+    original = x.copy()
+    try:
+        _rotation_z(x, getattr(model, "_beta", 0.0))
+        x *= model.bearing.radius
+        with XDMFFile(comm, str(Path(tmp) / f"{name}.xdmf"), "w") as xdmf:
+            xdmf.write_mesh(model.mesh)
+            for field in fields.values():
+                xdmf.write_function(field, 0.0)
+    finally:
+        x[:] = original
+    comm.Barrier()
+    if comm.rank == 0:
+        for suffix in (".xdmf", ".h5"):
+            os.replace(Path(tmp) / f"{name}{suffix}", directory / f"{name}{suffix}")
+        shutil.rmtree(tmp, ignore_errors=True)
+    comm.Barrier()
+    return directory / f"{name}.xdmf"
+
+
+def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(theta [deg, bushing frame], z [mm], p [MPa]) of all dofs on rank 0 (a half mesh mirrored to
+    the whole width); None elsewhere."""
+    n = model.V.dofmap.index_map.size_local
+    coords = model.V.tabulate_dof_coordinates()[:n]
+    theta = (np.degrees(np.arctan2(coords[:, 1], coords[:, 0]) + getattr(model, "_beta", 0.0))) % 360.0
+    z = coords[:, 2] * model.bearing.radius * 1e3
+    p = model.P.x.array[:n] * model.scales.pressure * 1e-6
+    if model.mesh_spec.half:  # the solved half z >= 0 and its mirror image
+        mirror = z > 0
+        theta, z, p = np.concatenate([theta, theta[mirror]]), np.concatenate([z, -z[mirror]]), np.concatenate([p, p[mirror]])
+    parts = model.comm.gather((theta, z, p), root=0)
+    if model.comm.rank != 0:
+        return None
+    return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
+
+
+def plot_pressure_map(path: Path, model, title: str = "") -> None:
+    """PNG of the film pressure over the unrolled bearing surface (theta, z). Collective."""
+    data = gather_pressure(model)
+    if data is None:
+        return
+
+    theta, z, p = data
+    # repeat a strip across the seam so that the contours reach 0 and 360 deg
+    low, high = theta < 20, theta > 340
+    theta = np.concatenate([theta, theta[low] + 360, theta[high] - 360])
+    z, p = np.concatenate([z, z[low], z[high]]), np.concatenate([p, p[low], p[high]])
+    fig, ax = subplots(figsize=(9, 3.6), constrained_layout=True)
+    levels = np.linspace(0.0, max(float(p.max()), 1e-12), 21)
+    cs = ax.tricontourf(theta, z, p, levels=levels, cmap="viridis")
+    fig.colorbar(cs, ax=ax, label="film pressure [MPa]")
+    ax.set_xlabel("bushing angle theta [deg]")
+    ax.set_ylabel("axial position z [mm]")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_title(title or "film pressure (cavitated where 0)")
+    with atomic_path(Path(path)) as part:
+        fig.savefig(part, dpi=120, format="png")
+
+
+def write_json(path: Path, data: dict) -> None:
+
+    with atomic_path(Path(path)) as part:
+        part.write_text(json.dumps(data, indent=2) + "\n")
+
+
+__all__ = ["atomic_path", "write_film_fields", "plot_pressure_map", "gather_pressure", "write_json"]
+
+
+def write_netcdf(ds, path: Path) -> None:
+    """Write an xarray Dataset to netCDF atomically (compressed variables)."""
+    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars}
+    with atomic_path(Path(path)) as part:
+        ds.to_netcdf(part, encoding=encoding, format="NETCDF4")
+
+
+STRIBECK_VARIABLES = {  # name -> (units, long_name)
+    "eccentricity": ("1", "eccentricity ratio e/c"),
+    "h_min": ("m", "minimum film thickness"),
+    "h_min_over_sigma": ("1", "minimum film thickness over composite roughness"),
+    "friction_coefficient": ("1", "friction coefficient |M_journal| / (R W)"),
+    "hydro_load": ("N", "load carried by the film pressure"),
+    "asperity_load": ("N", "load carried by asperity contact"),
+    "friction_torque": ("N m", "friction torque on the journal"),
+    "asperity_friction_torque": ("N m", "asperity part of the friction torque on the journal"),
+    "power_loss": ("W", "friction power loss"),
+    "p_max": ("Pa", "peak film pressure"),
+    "contact_area_ratio": ("1", "real contact area over nominal area"),
+}
+
+
+def stribeck_dataset(speeds_rpm, hersey, petroff, data: dict, attrs: dict):
+
+    variables = {name: ("speed", data[name], {"units": u, "long_name": ln}) for name, (u, ln) in STRIBECK_VARIABLES.items()}
+    variables["hersey_number"] = ("speed", hersey, {"units": "1", "long_name": "Hersey number eta N / P (N in rev/s)"})
+    variables["petroff_friction_coefficient"] = ("speed", petroff, {"units": "1", "long_name": "Petroff's law"})
+    return xr.Dataset(variables, coords={"speed": ("speed", speeds_rpm, {"units": "rpm", "long_name": "journal speed"})},
+                      attrs=attrs)
+
+
+def plot_stribeck(ds, path: Path) -> None:
+
+    fig, ax = subplots(figsize=(7, 4.5), constrained_layout=True)
+    ax.loglog(ds.hersey_number, ds.friction_coefficient, "o-", label="finite-element mixed lubrication")
+    ax.loglog(ds.hersey_number, ds.petroff_friction_coefficient, "--", color="gray", label="Petroff")
+    mu_f = ds.attrs.get("asperity_friction")
+    if mu_f:
+        ax.axhline(mu_f, color="tab:red", ls=":", label="asperity friction coefficient")
+    f = ds.friction_coefficient.values
+    ax.set_ylim(0.3 * np.nanmin(f), 3 * max(np.nanmax(f), mu_f or 0))
+    ax.set_xlabel("Hersey number eta N / P")
+    ax.set_ylabel("friction coefficient")
+    ax.set_title(f"Stribeck curve, load {ds.attrs['load_N']:g} N")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    with atomic_path(Path(path)) as part:
+        fig.savefig(part, dpi=120, format="png")

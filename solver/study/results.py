@@ -1,0 +1,265 @@
+"""Results of a coupled run: the netCDF data contract (DESIGN 4), PNG plots, log and checkpoints.
+
+``results.nc`` has the dimension ``crank_angle`` (deg, 0-720, the last computed cycle) and the
+DESIGN 4 variables (names are an interface: add, do not rename), each with ``units`` and
+``long_name``; its attributes hold every case parameter as ``"section.key"`` in the case file's
+units, the solver version, the numerical settings, the wall time and ``status = "complete"`` (a
+results file without it is not a finished run). Files are written by rank 0 of the case
+communicator, under a temporary name and renamed into place.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import logging
+import math
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import xarray as xr
+
+from solver import __version__
+from solver.case import case_attributes
+from solver.study import io
+
+log = logging.getLogger(__name__)
+
+#: name -> (units, long_name). The first block is the DESIGN 4 contract; the rest are additions.
+VARIABLES: dict[str, tuple[str, str]] = {
+    "F_gas": ("N", "gas force on the piston, towards the crank"),
+    "x_piston": ("m", "piston pin position along the cylinder axis"),
+    "a_piston": ("m s-2", "piston acceleration along the cylinder axis"),
+    "pin_force_x": ("N", "force of the pin on the rod small end, x (film + asperity + friction)"),
+    "pin_force_y": ("N", "force of the pin on the rod small end, y (film + asperity + friction)"),
+    "ideal_pin_force_x": ("N", "force of the pin on the rod small end with an ideal joint, x"),
+    "ideal_pin_force_y": ("N", "force of the pin on the rod small end with an ideal joint, y"),
+    "ecc_x": ("m", "eccentricity of the pin in the bushing (rod) frame, x (along the rod)"),
+    "ecc_y": ("m", "eccentricity of the pin in the bushing (rod) frame, y"),
+    "eps": ("1", "eccentricity ratio |e|/c"),
+    "h_min": ("m", "minimum film thickness"),
+    "p_max": ("Pa", "peak film pressure"),
+    "F_hydro": ("N", "film (hydrodynamic) force magnitude"),
+    "F_asperity": ("N", "asperity contact force magnitude"),
+    "friction_torque": ("N m", "friction torque on the pin about its centre (viscous + asperity)"),
+    "friction_power": ("W", "friction power loss, -friction_torque x (omega_pin - omega_rod)"),
+    "crank_torque": ("N m", "driving torque on the crank (counter-clockwise +)"),
+    # additions
+    "time": ("s", "time"),
+    "v_piston": ("m s-1", "piston velocity along the cylinder axis"),
+    "rod_angle": ("rad", "connecting rod angle from the cylinder axis"),
+    "p_cyl": ("Pa", "cylinder pressure (absolute)"),
+    "ecc_rate_x": ("m s-1", "rate of ecc_x in the rotating rod frame"),
+    "ecc_rate_y": ("m s-1", "rate of ecc_y in the rotating rod frame"),
+    "omega_rel": ("rad s-1", "angular speed of the pin relative to the rod"),
+    "h_min_over_sigma": ("1", "minimum film thickness over composite roughness"),
+    "contact_area_ratio": ("1", "real asperity contact area over nominal bearing area"),
+    "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
+    "dissipated_power": ("W", "power dissipated in the joint (friction + squeeze)"),
+    "input_power": ("W", "power of the crank driver and the gas on the mechanism"),
+    "kinetic_energy": ("J", "kinetic energy of the mechanism"),
+    "potential_energy": ("J", "gravitational potential energy of the mechanism"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSummary:
+    """What a finished run returns (and the batch layer tabulates)."""
+
+    case: str
+    results: Path  # results.nc
+    h_min_min: float  # m, cycle minimum of the minimum film thickness
+    p_max_max: float  # Pa, cycle maximum of the peak film pressure
+    F_asperity_max: float  # N, cycle maximum of the asperity contact force
+    friction_power_mean: float  # W, cycle mean of the friction power
+    cycles: int
+    periodic: bool
+    wall_time: float  # s
+
+
+def attach_log(path: Path, comm: MPI.Comm) -> logging.Handler | None:
+    """Log the run to ``path`` (rank 0 of the case communicator)."""
+    if comm.rank != 0:
+        return None
+    handler = logging.FileHandler(path, mode="a")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger("solver")
+    root.addHandler(handler)
+    if root.level == logging.NOTSET or root.level > logging.INFO:
+        root.setLevel(logging.INFO)
+    return handler
+
+
+def detach_log(handler: logging.Handler | None) -> None:
+    if handler is not None:
+        logging.getLogger("solver").removeHandler(handler)
+        handler.close()
+
+
+def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history) -> None:
+    """State at a cycle end (atomic)."""
+    with io.atomic_path(path) as part:
+        with open(part, "wb") as stream:
+            np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history))
+
+
+def read_checkpoint(path: Path, fingerprint: str):
+    """(cycles done, t, q, qd, h_min history) from a checkpoint of the same case, else None."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path) as data:
+            if str(data["fingerprint"]) != fingerprint:
+                log.info("checkpoint %s belongs to other case settings: starting afresh", path)
+                return None
+            return int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"])
+    except (OSError, KeyError, ValueError) as err:
+        log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
+        return None
+
+
+def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict):
+    """The xarray Dataset of the data contract."""
+    angles = columns["crank_angle"]
+    data = dict(columns)
+    data["ideal_pin_force_x"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_x)
+    data["ideal_pin_force_y"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_y)
+    data["eps"] = np.hypot(data["ecc_x"], data["ecc_y"]) / case.small_end.clearance
+    data["h_min_over_sigma"] = data["h_min"] / case.surface.sigma
+    variables = {name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
+                 for name, (u, ln) in VARIABLES.items()}
+    coords = {"crank_angle": ("crank_angle", angles, {"units": "degree",
+                                                      "long_name": "crank angle (0 = TDC at the start of intake)"})}
+    return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+
+def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles: int, periodic: bool,
+                  wall_time: float, fields: list[Path], comm: MPI.Comm):
+    """Write results.nc and the plots (rank 0); return the RunSummary on every rank."""
+    cols = cycle.columns
+    summary_values = {
+        "h_min_min": _nanreduce(np.nanmin, cols["h_min"]),
+        "p_max_max": _nanreduce(np.nanmax, cols["p_max"]),
+        "F_asperity_max": _nanreduce(np.nanmax, cols["F_asperity"]),
+        "friction_power_mean": _cycle_mean(cols["crank_angle"], cols["friction_power"]),
+    }
+    attrs = {**case_attributes(case)}
+    attrs.update({
+        "status": "complete", "solver_version": __version__, "joint": joint, "cycles": cycles,
+        "periodic": "true" if periodic else "false", "wall_time_s": wall_time,
+        "mesh_size": case.solver.mesh_size, "film_dofs": run.model.dofs if run.model is not None else 0,
+        "rtol": case.solver.rtol, "atol": "1e-4 clearance on positions, x crank speed on velocities",
+        "periodic_tolerance": case.solver.periodic_tolerance,
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "fields": ", ".join(p.name for p in fields),
+        **{f"summary.{k}": v for k, v in summary_values.items()},
+        "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",
+    })
+    ds = build_dataset(case, cols, ideal, attrs=attrs)
+    results = out_dir / "results.nc"
+    if comm.rank == 0:
+        io.write_netcdf(ds, results)
+        plot_cycle(ds, out_dir, title=f"{case.name} ({joint})")
+    comm.Barrier()
+    return RunSummary(case=case.name, results=results, cycles=cycles, periodic=periodic, wall_time=wall_time,
+                      **summary_values)
+
+
+def _nanreduce(fn, values: np.ndarray) -> float:
+    values = np.asarray(values, dtype=float)
+    return float(fn(values)) if np.any(np.isfinite(values)) else math.nan
+
+
+def _cycle_mean(angles: np.ndarray, values: np.ndarray) -> float:
+    values = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(values)):
+        return math.nan
+    return float(np.trapz(values, angles) / (angles[-1] - angles[0]))
+
+
+def is_complete(path: Path) -> bool:
+    """True for a results file of a finished run: it opens with xarray and ``status == "complete"``."""
+    path = Path(path)
+    if not path.is_file():
+        return False
+    try:
+        with xr.open_dataset(path) as ds:
+            return ds.attrs.get("status") == "complete"
+    except Exception:  # noqa: BLE001 - any unreadable file is an unfinished run
+        return False
+
+
+def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
+    """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle)."""
+
+    angle = ds.crank_angle.values
+    c = float(ds.attrs["small_end.clearance_um"]) * 1e-6
+    paths = []
+
+    def save(fig, name):
+        path = out_dir / name
+        with io.atomic_path(path) as part:
+            fig.savefig(part, dpi=110, format="png")
+        paths.append(path)
+
+    def mark_tdc(ax):
+        for x in (0, 180, 360, 540, 720):
+            ax.axvline(x, color="0.85", lw=0.8, zorder=0)
+        ax.set_xlim(0, 720)
+        ax.set_xticks(range(0, 721, 90))
+        ax.set_xlabel("crank angle [deg] (360 = firing TDC)")
+
+    # orbit
+    fig, ax = io.subplots(figsize=(5.6, 5.2), constrained_layout=True)
+    circle = np.linspace(0, 2 * np.pi, 361)
+    ax.plot(np.cos(circle), np.sin(circle), color="k", lw=1, label="clearance circle")
+    ex, ey = ds.ecc_x.values / c, ds.ecc_y.values / c
+    if np.any(np.isfinite(ex)):
+        points = ax.scatter(ex, ey, c=angle, cmap="twilight", s=6, vmin=0, vmax=720)
+        fig.colorbar(points, ax=ax, label="crank angle [deg]")
+        ax.plot(ex, ey, color="0.5", lw=0.5)
+    ax.set_aspect("equal")
+    ax.set_xlim(-1.1, 1.1)
+    ax.set_ylim(-1.1, 1.1)
+    ax.set_xlabel("e_x / c (along the rod, towards the small end)")
+    ax.set_ylabel("e_y / c")
+    ax.set_title(f"pin orbit in the bushing: {title}", fontsize=9)
+    save(fig, "orbit.png")
+    # film thickness and pressure
+    fig, (a1, a2) = io.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
+    a1.plot(angle, ds.h_min.values * 1e6, color="tab:blue")
+    sigma = math.hypot(float(ds.attrs["surface.sigma_pin_um"]), float(ds.attrs["surface.sigma_bushing_um"])) * 1e-6
+    if np.any(np.isfinite(ds.F_asperity.values)):
+        a1.axhline(3 * sigma * 1e6, color="tab:red", ls=":", label="3 sigma (asperity contact below)")
+        a1.legend(fontsize=8)
+    a1.set_ylabel("h_min [um]")
+    a1.set_title(f"minimum film thickness and peak pressure: {title}", fontsize=9)
+    a2.plot(angle, ds.p_max.values / 1e6, color="tab:orange")
+    a2.set_ylabel("p_max [MPa]")
+    mark_tdc(a1)
+    mark_tdc(a2)
+    save(fig, "film.png")
+    # forces
+    fig, ax = io.subplots(figsize=(8, 4.2), constrained_layout=True)
+    ideal = np.hypot(ds.ideal_pin_force_x.values, ds.ideal_pin_force_y.values)
+    ax.plot(angle, ideal / 1e3, color="k", lw=1, ls="--", label="ideal joint |F_pin|")
+    ax.plot(angle, np.hypot(ds.pin_force_x.values, ds.pin_force_y.values) / 1e3, color="0.4", lw=1, label="|F_pin|")
+    ax.plot(angle, ds.F_hydro.values / 1e3, color="tab:blue", label="film")
+    ax.plot(angle, ds.F_asperity.values / 1e3, color="tab:red", label="asperity contact")
+    ax.set_ylabel("force [kN]")
+    ax.set_title(f"small-end forces: {title}", fontsize=9)
+    ax.legend(fontsize=8)
+    mark_tdc(ax)
+    save(fig, "forces.png")
+    # friction power
+    fig, ax = io.subplots(figsize=(8, 4.2), constrained_layout=True)
+    ax.plot(angle, ds.friction_power.values, color="tab:green", label="friction power")
+    ax.plot(angle, ds.squeeze_power.values, color="tab:purple", lw=0.8, label="squeeze power")
+    ax.set_ylabel("power [W]")
+    ax.set_title(f"small-end friction power: {title}", fontsize=9)
+    ax.legend(fontsize=8)
+    mark_tdc(ax)
+    save(fig, "friction_power.png")
+    return paths

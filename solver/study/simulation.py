@@ -1,0 +1,346 @@
+"""One engine operating point with the lubricated small end: cycles until periodic, then results.
+
+The case's engine (solver.dynamics.engine) is built with the small end as a clearance joint whose law is one
+of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``short-bearing``;
+``dry``) or as an ideal revolute (``ideal``). The equations of motion are integrated with the
+L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the joint's exact Jacobian,
+so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
+
+The run starts from the ideal-joint configuration at 0 deg with the pin centred in its bushing and
+integrates whole 720 deg cycles until the cycle minimum of the film thickness changes by less than
+``solver.periodic_tolerance`` x clearance from one cycle to the next (at least two cycles, at most
+``solver.max_cycles``); the last cycle is reported. The state is checkpointed at every cycle end
+(``results/checkpoint.npz``), so an interrupted run resumes from the last finished cycle.
+
+Per output crank angle (step ``solver.step_deg``) the results hold the DESIGN 4 variables (pin force
+on the rod, eccentricity in the rod frame, h_min, p_max, film and asperity forces, friction torque and
+power, crank torque, ...) and the ideal-joint pin force for comparison. Energy bookkeeping per output:
+input power (crank + gas + gravity), mechanical energy, and the power dissipated in the joint
+``D = -(F' . de'/dt + T_j omega_rel + omega_b (T_j + T_b + e' x F'))`` (the last term vanishes when the
+film's moment balance holds).
+
+A failed film solve returns NaN forces and the integrator retries with a shorter step; when the step
+size collapses the run stops with a ``SimulationError`` naming the crank angle. Everything runs on the
+given communicator: the film mesh is distributed over it and every rank integrates the (small)
+multibody system with the same, reduced film forces.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import logging
+import math
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+from tqdm import tqdm
+
+from solver import __version__
+from solver.case import Case, case_attributes, load_case
+from solver.dynamics.engine import CRANK, PISTON, ROD, build_mechanism, engine_from_case, simulate_ideal
+from solver.dynamics.integrate import IntegrationError, integrate
+from solver.dynamics.joint import JOINTS, joint_from_case
+from solver.dynamics.multibody import accelerations, joint_reactions, rotation
+from solver.errors import InputError
+from solver.study import io
+from solver.study import results as results_io
+from solver.study.results import RunSummary
+
+log = logging.getLogger(__name__)
+
+CHUNK_DEG = 10.0  # crank angle between progress updates
+S = np.array([[0.0, -1.0], [1.0, 0.0]])
+
+
+class SimulationError(RuntimeError):
+    """The coupled run failed (the message names the crank angle and cycle)."""
+
+
+@dataclasses.dataclass
+class CycleOutput:
+    """Arrays over the output crank angles of one cycle (SI)."""
+
+    columns: dict[str, np.ndarray]
+    h_min_min: float
+
+
+def _case_fingerprint(case: Case, joint: str) -> str:
+    text = repr(sorted((k, str(v)) for k, v in case_attributes(case).items())) + joint + __version__
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class _Run:
+    """State of one coupled run (kept small: the heavy objects are the mechanism and the film)."""
+
+    def __init__(self, case: Case, comm: MPI.Comm, joint_name: str):
+        self.case, self.comm, self.joint_name = case, comm, joint_name
+        self.engine = engine_from_case(case)
+        self.omega = self.engine.crank_motion.speed
+        self.joint, self.model = joint_from_case(case, self.engine, comm, joint_name)
+        self.em = build_mechanism(self.engine, self.joint)
+        c = case.small_end.clearance
+        n = self.em.mechanism.n_coordinates
+        position = np.tile([1e-4 * c, 1e-4 * c, 1e-6], n // 3)
+        self.atol = np.concatenate([position, position * self.omega])
+        self.step_deg = math.degrees(case.solver.step)
+        self.steps = 0  # accepted integrator steps so far
+
+    # -- integration ------------------------------------------------------------------------------
+    def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
+        """One 720 deg cycle from (t0, q0, qd0) in chunks; returns (outputs per angle, end state)."""
+        motion = self.engine.crank_motion
+        theta0 = 4 * math.pi * cycle
+        n_out = int(round(720.0 / self.step_deg))
+        angles = np.linspace(0.0, 720.0, n_out + 1)
+        times = np.asarray(motion.time(np.radians(angles) + theta0), dtype=float)
+        times[0] = t0
+        # Every output angle is a step end: the cubic dense output is fine for positions but not for the
+        # relative velocity of a stiff joint, and the film force depends on that velocity.
+        q, t = q0, t0
+        row, qd = self._state_outputs(t0, q0, qd0)
+        rows = [row]
+        step = jacobian = interpolant = None
+        for k in range(1, n_out + 1):
+            t_end = float(times[k])
+            try:
+                tr = integrate(self.em.mechanism, q, qd, (t, t_end), method="ESDIRK32", rtol=self.case.solver.rtol,
+                               atol=self.atol, alpha=self.omega, beta=self.omega, t_eval=np.array([t_end]),
+                               first_step=step, assemble_initial_state=False, jacobian_reuse=True,
+                               jacobian=jacobian, interpolant=interpolant, accelerations=False)
+            except IntegrationError as err:
+                raise SimulationError(f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
+                                      f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}") from None
+            q, t = tr.q[-1], t_end
+            jacobian, interpolant = tr.jacobian, tr.interpolant
+            step = min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
+            row, qd = self._state_outputs(t, q, tr.qd[-1])  # the next interval starts from these velocities
+            rows.append(row)
+            self.steps += tr.n_steps
+            if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
+                progress(cycle, angles[k], rows[-1]["h_min"])
+        columns = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        columns["crank_angle"] = angles
+        h_min = columns["h_min"]
+        return CycleOutput(columns, float(np.nanmin(h_min))), (t, q, qd)
+
+    def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
+        """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
+        qd = self._consistent(t, q, qd)
+        Q = self.em.mechanism.forces(q, qd, t).Q
+        qdd, lam = accelerations(self.em.mechanism, q, qd, t, Q, alpha=self.omega, beta=self.omega)
+        return self._outputs(t, q, qd, qdd, lam), qd
+
+    def _consistent(self, t: float, q, qd) -> np.ndarray:
+        """Velocities on the constraint manifold that keep the joint's relative motion (outputs).
+
+        The integrator leaves velocity-constraint residuals of order rtol |qd| (~1e-4 m/s), whose
+        constraint forces do ~1 W of spurious work: as much as the joint dissipates. The outputs are
+        therefore evaluated at the velocities with ``Phi_q qd = -Phi_t`` that keep de'/dt (the two
+        free coordinates, in which the joint is stiff). The next output interval starts from them too
+        (a projection of the velocities at every output time), so the film solve of the outputs is
+        also the first one of the next interval.
+        """
+        mech, element = self.em.mechanism, self.em.small_end
+        if element is None:
+            return qd
+        kin = element.kinematics(q, qd)
+        rows = [mech.jacobian(q, t), kin.dz_dqd[2:4]]
+        rhs = [-mech.phi_t(q, t), kin.dz_dqd[2:4] @ qd]
+        A, b = np.vstack(rows), np.concatenate(rhs)
+        correction = A.T @ np.linalg.lstsq(A @ A.T, b - A @ qd, rcond=None)[0]
+        return qd + correction
+
+    def _outputs(self, t: float, q, qd, qdd, lam) -> dict[str, float]:
+        """The DESIGN 4 variables and the energy bookkeeping at one state (consistent velocities)."""
+        em, engine, mech = self.em, self.engine, self.em.mechanism
+        theta = float(q[3 * CRANK + 2])
+        reactions = joint_reactions(mech, q, t, lam)
+        out: dict[str, float] = {
+            "time": t, "x_piston": q[3 * PISTON], "v_piston": qd[3 * PISTON], "a_piston": qdd[3 * PISTON],
+            "rod_angle": q[3 * ROD + 2], "F_gas": float(engine.gas_force(theta)),
+            "p_cyl": float(engine.cylinder_pressure.pressure(theta)),
+            "crank_torque": reactions["crank_driver"][CRANK, 2],
+        }
+        c = self.case.small_end.clearance
+        nan = math.nan
+        values = dict(ecc_x=nan, ecc_y=nan, ecc_rate_x=nan, ecc_rate_y=nan, omega_rel=nan, pin_force_x=nan, pin_force_y=nan, h_min=nan, p_max=nan, F_hydro=nan,
+                      F_asperity=nan, friction_torque=nan, friction_power=nan, squeeze_power=nan,
+                      dissipated_power=nan, contact_area_ratio=nan)
+        if em.small_end is None:
+            values["pin_force_x"], values["pin_force_y"] = reactions["small_end"][ROD, :2]
+        else:
+            kin = em.small_end.kinematics(q, qd)
+            forces = em.small_end.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
+            F_b = np.asarray(forces.force)  # bushing on pin, rod frame
+            A_b = rotation(float(q[3 * ROD + 2]))
+            pin_on_rod = -(A_b @ F_b)
+            omega_b = float(qd[3 * ROD + 2])
+            squeeze = -float(F_b @ kin.ecc_rate)
+            friction = -forces.journal_torque * kin.omega_rel
+            moment = forces.journal_torque + forces.bushing_torque + float(kin.ecc[0] * F_b[1] - kin.ecc[1] * F_b[0])
+            values.update(ecc_x=kin.ecc[0], ecc_y=kin.ecc[1], ecc_rate_x=kin.ecc_rate[0], ecc_rate_y=kin.ecc_rate[1],
+                          omega_rel=kin.omega_rel, pin_force_x=pin_on_rod[0], pin_force_y=pin_on_rod[1],
+                          h_min=c - math.hypot(*kin.ecc), friction_torque=forces.journal_torque,
+                          friction_power=friction, squeeze_power=squeeze,
+                          dissipated_power=squeeze + friction - omega_b * moment)
+            result = self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel) if self.model is not None else None
+            if result is not None:
+                values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
+                              contact_area_ratio=result.contact_area_ratio)
+            elif self.joint_name == "short-bearing":
+                values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0)
+            elif self.joint_name == "dry":
+                values.update(F_hydro=0.0, F_asperity=float(np.hypot(*F_b)))
+        out.update(values)
+        # energy: input power of the driver, the gas and gravity; mechanical energy
+        masses = np.concatenate([[b.mass, b.mass, b.inertia] for b in mech.bodies])
+        out["kinetic_energy"] = 0.5 * float(np.sum(masses * qd**2))
+        g = engine.gravity
+        x_cm = np.array([q[3 * i] for i in range(len(mech.bodies))])
+        m = np.array([b.mass for b in mech.bodies])
+        out["potential_energy"] = float(np.sum(m * g * x_cm))
+        out["input_power"] = (out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON])
+        return out
+
+    # -- film fields --------------------------------------------------------------------------------
+    def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
+        """XDMF pressure / film thickness / asperity pressure at the case's field angles (mixed-fem only)."""
+        from solver.film.bearing import Kinematics  # dolfinx: only for a finite-element joint
+
+        if self.model is None:
+            return []
+        paths = []
+        cols = cycle.columns
+        for angle in self.case.solver.field_angles:
+            deg = math.degrees(angle)
+            k = int(np.argmin(np.abs(cols["crank_angle"] - deg)))
+            kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
+                             (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
+                             float(cols["omega_rel"][k]), 0.0)
+            self.model.solve(kin)
+            paths.append(io.write_film_fields(directory, f"film_{cols['crank_angle'][k]:05.1f}deg", self.model))
+        return paths
+
+
+def _ideal_cycle_output(ideal) -> CycleOutput:
+    """The ideal-joint cycle in the layout of the coupled outputs (film quantities NaN)."""
+    n = len(ideal.crank_angle)
+    nan = np.full(n, np.nan)
+    columns = {
+        "crank_angle": ideal.crank_angle, "time": ideal.time, "x_piston": ideal.piston_position,
+        "v_piston": ideal.piston_velocity, "a_piston": ideal.piston_acceleration, "rod_angle": ideal.rod_angle,
+        "F_gas": ideal.gas_force, "p_cyl": ideal.cylinder_pressure, "crank_torque": ideal.crank_torque,
+        "pin_force_x": ideal.pin_force_x, "pin_force_y": ideal.pin_force_y,
+        "input_power": ideal.crank_torque * ideal.crank_speed - ideal.gas_force * ideal.piston_velocity,
+    }
+    for name in ("ecc_x", "ecc_y", "ecc_rate_x", "ecc_rate_y", "omega_rel", "h_min", "p_max", "F_hydro", "F_asperity",
+                 "friction_torque", "friction_power", "squeeze_power", "dissipated_power", "contact_area_ratio",
+                 "kinetic_energy", "potential_energy"):
+        columns[name] = nan.copy()
+    return CycleOutput(columns, math.nan)
+
+
+def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None, progress: bool = False,
+             resume: bool = True) -> RunSummary:
+    """Run one case directory; write ``results/`` beside its case.toml; return the summary.
+
+    Args:
+        case_path: the case directory (or its TOML file).
+        comm: the communicator of this case (the film mesh is distributed over it).
+        joint: override ``solver.joint`` of the case.
+        progress: show a progress bar on rank 0 (cycle, crank angle, h_min).
+        resume: continue from ``results/checkpoint.npz`` if it belongs to the same case.
+
+    Raises:
+        InputError: a bad case (on every rank of comm).
+        SimulationError: the run failed.
+    """
+    start = time.perf_counter()
+    case = load_case(case_path)
+    joint = joint or case.solver.joint
+    if joint not in JOINTS:
+        raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
+    out_dir = case.directory / "results"
+    if comm.rank == 0:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    comm.Barrier()
+    handler = results_io.attach_log(out_dir / "run.log", comm)
+    run = None
+    try:
+        log.info("case %s: joint %s, solver %s", case.name, joint, __version__)
+        ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))
+        run = _Run(case, comm, joint)
+        if joint == "ideal":  # kinematically determined: the ideal cycle is the answer
+            cycles_done, periodic = 1, True
+            cycle = _ideal_cycle_output(ideal)
+        else:
+            cycle, cycles_done, periodic = _cycles(run, out_dir, progress, resume)
+        fields = run.write_fields(out_dir, cycle)
+        wall = time.perf_counter() - start
+        summary = results_io.write_results(out_dir, case, run, cycle, ideal, joint=joint, cycles=cycles_done,
+                                           periodic=periodic, wall_time=wall, fields=fields, comm=comm)
+        if comm.rank == 0:
+            checkpoint = out_dir / "checkpoint.npz"
+            if checkpoint.exists():
+                checkpoint.unlink()
+        log.info("finished in %.1f s: h_min min %.3g um, p_max max %.3g MPa, %d cycles, periodic %s", wall,
+                 summary.h_min_min * 1e6, summary.p_max_max / 1e6, cycles_done, periodic)
+        return summary
+    finally:
+        results_io.detach_log(handler)
+        if run is not None and run.model is not None:
+            run.model.close()
+
+
+def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
+    """Integrate cycles until periodic; checkpoint at cycle ends. Returns (last cycle, count, periodic)."""
+    case, comm = run.case, run.comm
+    fingerprint = _case_fingerprint(case, run.joint_name)
+    checkpoint = out_dir / "checkpoint.npz"
+    state = results_io.read_checkpoint(checkpoint, fingerprint) if resume else None
+    if state is not None:
+        first, t0, q0, qd0, history = state
+        log.info("resuming after cycle %d from %s", first, checkpoint)
+    else:
+        first, history = 0, []
+        t0, q0, qd0 = run.em.initial_state(0.0)
+    bar = None
+    if progress and comm.rank == 0:
+        bar = tqdm(total=case.solver.max_cycles * 720, initial=first * 720, unit="deg", desc=case.name,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} deg [{elapsed}<{remaining}] {postfix}")
+
+    def report(cycle_index, angle, h_min):
+        if bar is not None:
+            bar.n = cycle_index * 720 + angle
+            bar.set_postfix_str(f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um")
+            bar.refresh()
+
+    cycle = None
+    periodic = False
+    c = case.small_end.clearance
+    try:
+        for index in range(first, case.solver.max_cycles):
+            cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
+            history.append(cycle.h_min_min)
+            change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+            log.info("cycle %d: min h_min = %.4g um (change %.2g of the clearance)", index + 1, cycle.h_min_min * 1e6,
+                     change)
+            if comm.rank == 0:
+                results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history)
+            if change < case.solver.periodic_tolerance:
+                periodic = True
+                break
+    finally:
+        if bar is not None:
+            bar.close()
+    if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
+        cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
+        history.append(cycle.h_min_min)
+    if not periodic:
+        log.warning("not periodic after %d cycles (tolerance %g of the clearance)", len(history),
+                    case.solver.periodic_tolerance)
+    return cycle, len(history), periodic
