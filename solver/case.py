@@ -21,13 +21,12 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from solver.errors import InputError, out_of_range
+from solver.errors import InputError, out_of_range, read_toml_file
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -234,6 +233,8 @@ FIELDS: tuple[FieldSpec, ...] = (
        doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance"),
     FieldSpec("solver", "field_angles_deg", "field_angles", list, [0.0, 180.0, 360.0, 380.0, 540.0], DEG, 0.0, 720.0,
               False, doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)"),
+    _f("solver", "field_step_deg", "field_step", 5.0, DEG, 0.0, 720.0, closed=True, unit="deg",
+       doc="crank-angle step of the ParaView time series of the film fields (a multiple of step_deg; 0: none)"),
     _f("solver", "slip_regularisation_m_s", "slip_regularisation", 1e-3, 1.0, 0.0, unit="m/s",
        doc="sliding speed below which asperity and Coulomb friction are smoothed"),
 )
@@ -420,6 +421,7 @@ class Solver:
     max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
     field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad
+    field_step: float = _field("solver", "field_step")  # rad, ParaView series step (0: no series)
     slip_regularisation: float = _field("solver", "slip_regularisation")  # m/s
 
     def __post_init__(self) -> None:
@@ -428,6 +430,10 @@ class Solver:
         if abs(count - round(count)) > 1e-9 * count:
             allowed = "(0, 10) with 720 / step_deg an integer"
             raise out_of_range("solver.step_deg", f"{self.step / DEG:g}", allowed)
+        ratio = self.field_step / self.step
+        if self.field_step > 0 and abs(ratio - round(ratio)) > 1e-9 * ratio:
+            raise out_of_range("solver.field_step_deg", f"{self.field_step / DEG:g}",
+                               f"0 or a multiple of solver.step_deg = {self.step / DEG:g} in (0, 720]")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -503,13 +509,7 @@ def load_case(path: str | Path) -> Case:
     file = path / "case.toml" if path.is_dir() else path
     if not file.is_file():
         raise InputError(f"case file not found: {file}")
-    try:
-        with file.open("rb") as stream:
-            data = tomllib.load(stream)
-    except tomllib.TOMLDecodeError as err:
-        raise InputError(f"{file}: invalid TOML: {err}") from None
-    except OSError as err:
-        raise InputError(f"{file}: cannot read ({err.strerror})") from None
+    data = read_toml_file(file, "case file")
     directory = file.parent.resolve()
     where = str(file)
 

@@ -17,6 +17,8 @@ from mpi4py import MPI
 
 import pytest
 
+import solver.study.io  # noqa: F401  (imports netCDF4 quietly: see there)
+
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = ROOT.parent / "shared" / "data"
 

@@ -60,14 +60,56 @@ class _RankZeroFilter(logging.Filter):
         return self.rank == 0
 
 
+class _OursOrWarnings(logging.Filter):
+    """Our own records at their level; other libraries' only from WARNING up.
+
+    The forms' JIT compiles with distutils, which turns the root logger to INFO and logs every C
+    compiler command line: not for a user's terminal.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.name == "solver" or record.name.startswith("solver.") or record.levelno >= logging.WARNING
+
+
+class _JitNotice(logging.Handler):
+    """Turns FFCx's "Calling JIT C compiler" into one line of ours, once per process."""
+
+    def __init__(self):
+        super().__init__(logging.INFO)
+        self.told = False
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if not self.told and "Calling JIT C compiler" in record.getMessage():
+            self.told = True
+            logging.getLogger("solver.film").info(
+                "compiling the film's forms for this machine: once, about a minute; cached in ~/.cache/fenics")
+
+
+_HANDLER_TAG = "_tribo_handler"
+
+
 def setup_logging(rank: int, verbose: bool) -> None:
-    """Log to stderr on rank 0 only."""
+    """Log to stderr on rank 0 only, each record once: our INFO, other libraries' warnings.
+
+    The handler sits on the root logger, so that FFCx's ``logging.basicConfig()`` (at its import,
+    later) finds a handler and adds none: a second root handler printed every line twice.
+    """
     handler = logging.StreamHandler(sys.stderr)
+    setattr(handler, _HANDLER_TAG, True)
     handler.addFilter(_RankZeroFilter(rank))
+    handler.addFilter(_OursOrWarnings())
     handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
-    root = logging.getLogger("solver")
-    root.handlers[:] = [handler]
-    root.setLevel(logging.DEBUG if verbose else logging.INFO)
+    root = logging.getLogger()
+    root.handlers[:] = [h for h in root.handlers if not getattr(h, _HANDLER_TAG, False)] + [handler]
+    ours = logging.getLogger("solver")
+    ours.handlers[:] = [h for h in ours.handlers if not getattr(h, _HANDLER_TAG, False)]
+    ours.setLevel(logging.DEBUG if verbose else logging.INFO)
+    jit = logging.getLogger("ffcx")
+    jit.setLevel(logging.INFO)  # so that its "Calling JIT C compiler" reaches the notice
+    jit.handlers[:] = [h for h in jit.handlers if not getattr(h, _HANDLER_TAG, False)]
+    notice = _JitNotice()
+    setattr(notice, _HANDLER_TAG, True)
+    jit.addHandler(notice)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

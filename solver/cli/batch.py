@@ -76,7 +76,7 @@ class _RankPrefix(logging.Filter):
 
 def _log_other_ranks(world) -> None:
     """Batch progress of every rank (the CLI's handler shows world rank 0 only)."""
-    logger = logging.getLogger("solver.batch")
+    logger = logging.getLogger("solver.study.batch")
     logger.handlers[:] = [h for h in logger.handlers if not getattr(h, "_batch_rank_handler", False)]
     if world.rank == 0:
         return

@@ -48,7 +48,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline, PchipInterpolator
 from scipy.optimize import brentq, minimize_scalar
 
-from solver.errors import InputError, out_of_range
+from solver.errors import InputError, out_of_range, read_text_file
 
 CYCLE = 4.0 * math.pi  # rad, one four-stroke cycle
 BAR = 1e5  # Pa
@@ -393,12 +393,7 @@ def read_crank_angle_csv(
     """
     path = Path(path)
     where = f"{field} = {str(path)!r}"
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{where}: file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{where}: cannot read the file ({type(err).__name__}: {err})") from None
+    text = read_text_file(path, field)
     header, angles, values = None, [], []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()

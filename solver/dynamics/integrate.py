@@ -71,6 +71,7 @@ class Trajectory:
         n_output_evaluations: extra calls of ``Mechanism.forces`` for qdd and lambda at output times
             that were not the solver's last evaluated state (dense output).
         n_lu: LU decompositions of the Newton matrix (implicit methods).
+        n_rejected: step attempts rejected by the error test or a Newton failure (ESDIRK32).
         wall_time: s.
     """
 
@@ -88,6 +89,7 @@ class Trajectory:
     n_output_evaluations: int
     n_lu: int
     wall_time: float
+    n_rejected: int = 0  # rejected step attempts (error test or Newton failure; ESDIRK32)
     next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
     jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian (pass it on)
     interpolant: object | None = None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
@@ -292,6 +294,7 @@ class ESDIRK32:
         self.jacobian_reuse = jacobian_reuse
         #: the latest ODE Jacobian (kept across iterations, stages and steps when reusing)
         self.jacobian = jacobian if jacobian_reuse else None
+        self.n_rejected = 0  # step attempts rejected (error test or Newton failure)
         self.t, self.y, self.t_bound = t0, np.array(y0, dtype=float), t_bound
         self.rtol, self.atol, self.max_step = rtol, np.asarray(atol, dtype=float), max_step
         self.newton_tolerance = max(10.0 * np.finfo(float).eps / rtol, min(0.03, rtol**0.5))
@@ -430,6 +433,7 @@ class ESDIRK32:
                     continue
                 h *= self.NEWTON_FAILURE_FACTOR
                 rejected = True
+                self.n_rejected += 1
                 continue
             y_new, lu = result
             error = h * sum((self.B[j] - self.B_EMBEDDED[j]) * stages[j] for j in range(4))
@@ -441,6 +445,7 @@ class ESDIRK32:
                 break
             h *= max(0.2, factor)
             rejected = True
+            self.n_rejected += 1
         self._full_newton = False
         self._dense = _HermiteOutput(t, y, f0, t + h, y_new, stages[3])
         self.h = h * min(1.0 if rejected else 5.0, max(0.2, factor))
@@ -621,6 +626,7 @@ def integrate(
         n_output_evaluations=output_evaluations[0],
         n_lu=int(getattr(solver, "nlu", 0)),
         wall_time=time.perf_counter() - start,
+        n_rejected=int(getattr(solver, "n_rejected", 0)),
         next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
         jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
         interpolant=solver.dense_output() if method == "ESDIRK32" else None,

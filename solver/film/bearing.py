@@ -47,7 +47,7 @@ from dolfinx.la import create_petsc_vector
 from dolfinx.mesh import meshtags
 from ufl.algorithms import expand_derivatives
 
-from solver.errors import InputError, out_of_range
+from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
@@ -60,6 +60,15 @@ def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
     return np.concatenate([connectivity.links(int(f)) for f in entities]) if len(entities) else np.zeros(0, np.int32)
 
 log = logging.getLogger(__name__)
+
+# FFCx logs "Calling JIT C compiler" at INFO only when a form is compiled, not when it is loaded from
+# the cache: the CLI turns that record into one line for the user (solver.cli.setup_logging).
+_FORM_COMPILER = {"verbosity": logging.INFO}
+
+
+def _form(expression):
+    """dolfinx.fem.form with the form compiler's parameters of this package."""
+    return fem.form(expression, form_compiler_params=_FORM_COMPILER)
 
 INLETS = ("max-gap", "none")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
@@ -184,6 +193,21 @@ class FilmJacobian:
 _JACOBIAN_ROWS = ("force_x", "force_y", "torque_journal", "torque_bushing")
 
 
+@dataclasses.dataclass
+class FilmStats:
+    """Work done by a FilmModel so far (counts and wall seconds); the run reports it per cycle."""
+
+    solves: int = 0
+    vi_iterations: int = 0  # SNES VI (Newton) iterations of all solves
+    failures: int = 0  # solves that did not converge
+    jacobians: int = 0
+    solve_seconds: float = 0.0  # assembly, VI and functionals
+    jacobian_seconds: float = 0.0  # sensitivities and their functionals
+
+    def copy(self) -> "FilmStats":
+        return dataclasses.replace(self)
+
+
 class FilmModel:
     """Finite-element film of one bearing, reused across solves (see module docstring).
 
@@ -243,6 +267,7 @@ class FilmModel:
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         self._last: Kinematics | None = None
+        self.stats = FilmStats()
 
     # -- setup ----------------------------------------------------------------------------------
     def _build_forms(self) -> None:
@@ -263,8 +288,8 @@ class FilmModel:
         groups = {"film": (dx, False), "moment": (dx_moment, False), "contact": (dx, True)}
         whole = float(self.mesh_spec.multiplicity)  # integrals over the whole film / over the mesh
         residual = film.reynolds_integrand(P, v, g, self.roughness)
-        self._a = fem.form(ufl.derivative(residual * dx, P, dP))
-        self._l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
+        self._a = _form(ufl.derivative(residual * dx, P, dP))
+        self._l = _form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         couette_j, couette_b, pressure_part = film.shear_traction_integrands(P, g, self.roughness)
         # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, group)
         self._outputs = {
@@ -296,7 +321,7 @@ class FilmModel:
         self._force_vectors = {}
         for name in ("hydro_x", "hydro_y"):
             integrand, _, _, group = self._outputs[name]
-            vec = fem_petsc.assemble_vector(fem.form(ufl.derivative(integrand * groups[group][0], P, v)))
+            vec = fem_petsc.assemble_vector(_form(ufl.derivative(integrand * groups[group][0], P, v)))
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self._force_vectors[name] = vec
         # All other functionals of a solve in one pass over the cells per group.
@@ -337,7 +362,7 @@ class FilmModel:
         edge_cells = np.unique(mesh_entities_to_cells(self.mesh, edges))
         cell_marker = meshtags(self.mesh, 2, edge_cells.astype(np.int32), np.ones(len(edge_cells), dtype=np.int32))
         dx_edge = ufl.dx(domain=self.mesh, subdomain_data=cell_marker, subdomain_id=1, metadata=dx.metadata())
-        self._side_flow_form = fem.form(whole * ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
+        self._side_flow_form = _form(whole * ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
 
     def _boundary_conditions(self) -> list:
         fdim = 1
@@ -391,6 +416,20 @@ class FilmModel:
     def solve(self, kin: Kinematics) -> FilmResult:
         """Solve the film for the given kinematics (warm start from the last pressure)."""
         start = time.perf_counter()
+        stats = self.stats
+        stats.solves += 1
+        try:
+            result = self._solve(kin, start)
+        except FilmNotConverged as err:
+            stats.failures += 1
+            stats.vi_iterations += err.iterations
+            raise
+        finally:
+            stats.solve_seconds += time.perf_counter() - start
+        stats.vi_iterations += result.iterations
+        return result
+
+    def _solve(self, kin: Kinematics, start: float) -> FilmResult:
         beta = self._frame_angle(kin)
         rot = _rotation(-beta)
         solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
@@ -470,6 +509,14 @@ class FilmModel:
         """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y, omega_rel), SI."""
         if self._last is None:
             raise RuntimeError("jacobian() needs a solve() first")
+        start = time.perf_counter()
+        try:
+            return self._jacobian()
+        finally:
+            self.stats.jacobians += 1
+            self.stats.jacobian_seconds += time.perf_counter() - start
+
+    def _jacobian(self) -> FilmJacobian:
         vectors = self._jacobian_vectors()
         dr, gradients = vectors[: self._n_inputs], vectors[self._n_inputs :]
         for vec in dr:
@@ -555,7 +602,7 @@ class BlockedVectors:
         self.size = len(integrands)
         blocked = fem.VectorFunctionSpace(V.mesh, (element.family(), element.degree()), dim=self.size)
         w = ufl.TestFunction(blocked)
-        self.form = fem.form(sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands)))
+        self.form = _form(sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands)))
         self.blocked = fem_petsc.create_vector(self.form)
         n_owned = V.dofmap.index_map.size_local
         if blocked.dofmap.index_map.size_local != n_owned:

@@ -13,11 +13,19 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
+
+with warnings.catch_warnings():
+    # Debian 12's netCDF4 is built against another numpy patch level, and its import warns
+    # "numpy.ndarray size changed, may indicate binary incompatibility": harmless (the struct only
+    # grew), and nothing a user can act on. Imported here, once, so that xarray finds it loaded.
+    warnings.filterwarnings("ignore", "numpy.ndarray size changed", RuntimeWarning)
+    import netCDF4  # noqa: F401
 
 
 def subplots(*args, figsize, constrained_layout: bool = False, **kwargs):
@@ -76,6 +84,55 @@ def write_film_fields(directory: Path, name: str, model, times: list[float] | No
         shutil.rmtree(tmp, ignore_errors=True)
     comm.Barrier()
     return directory / f"{name}.xdmf"
+
+
+class FilmSeries:
+    """The film fields over the cycle as one ParaView time series: ``directory/name.xdmf`` (+ ``.h5``).
+
+    The mesh is written once, in metres in the bushing frame; every ``write(angle)`` adds the fields
+    of the model's current solution (pressure, film thickness, asperity pressure) at time = crank
+    angle [deg], so that ParaView plays the cycle. With the max-gap inlet the solution frame turns
+    with the eccentricity: the series is then in the solution frame (maximum gap at theta = 0).
+    Written in a temporary directory and renamed into place by ``close()``; ``abort()`` leaves
+    nothing. Collective on the model's communicator.
+    """
+
+    def __init__(self, directory: Path, name: str, model):
+        from dolfinx.io import XDMFFile  # dolfinx only for the fields: the plots and netCDF do not need it
+
+        self.directory, self.name, self.model, self.comm = Path(directory), name, model, model.comm
+        self.tmp = Path(self.comm.bcast(tempfile.mkdtemp(prefix=".series-", dir=self.directory)
+                                        if self.comm.rank == 0 else None, root=0))
+        self.count = 0
+        self.xdmf = XDMFFile(self.comm, str(self.tmp / f"{name}.xdmf"), "w")
+        x = model.mesh.geometry.x
+        original = x.copy()
+        try:
+            x *= model.bearing.radius
+            self.xdmf.write_mesh(model.mesh)
+        finally:
+            x[:] = original
+
+    def write(self, angle_deg: float) -> None:
+        for field in self.model.fields_si().values():
+            self.xdmf.write_function(field, float(angle_deg))
+        self.count += 1
+
+    def close(self) -> Path:
+        self.xdmf.close()
+        self.comm.Barrier()
+        if self.comm.rank == 0:
+            for suffix in (".xdmf", ".h5"):
+                os.replace(self.tmp / f"{self.name}{suffix}", self.directory / f"{self.name}{suffix}")
+            shutil.rmtree(self.tmp, ignore_errors=True)
+        self.comm.Barrier()
+        return self.directory / f"{self.name}.xdmf"
+
+    def abort(self) -> None:
+        self.xdmf.close()
+        self.comm.Barrier()
+        if self.comm.rank == 0:
+            shutil.rmtree(self.tmp, ignore_errors=True)
 
 
 def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import json
 import logging
 import math
 from pathlib import Path
@@ -64,6 +65,22 @@ VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
+#: Where the time of a cycle goes: name -> (unit, meaning). Logged per cycle and stored in the results'
+#: attributes as ``timing.<name>`` (one value per computed cycle, the first cycle first).
+TIMING: dict[str, tuple[str, str]] = {
+    "wall_s": ("s", "wall time of the cycle (integration, outputs and checkpoint)"),
+    "film_solves": ("1", "film solves (each an SNES VI solve, its assembly and functionals)"),
+    "vi_iterations": ("1", "SNES VI (Newton) iterations of all film solves"),
+    "film_jacobians": ("1", "film Jacobians (sensitivities with the converged active set)"),
+    "steps": ("1", "accepted integrator steps"),
+    "rejected_steps": ("1", "rejected integrator step attempts (error test or Newton failure)"),
+    "film_solve_s": ("s", "seconds in film solves"),
+    "film_jacobian_s": ("s", "seconds in film Jacobians"),
+    "multibody_s": ("s", "seconds in the multibody system, integrator and Python (the rest of the cycle)"),
+    "io_s": ("s", "seconds writing the checkpoint"),
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class RunSummary:
     """What a finished run returns (and the batch layer tabulates)."""
@@ -98,15 +115,16 @@ def detach_log(handler: logging.Handler | None) -> None:
         handler.close()
 
 
-def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history) -> None:
-    """State at a cycle end (atomic)."""
+def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=()) -> None:
+    """State at a cycle end, with the h_min history and the cycles' timing (atomic)."""
     with io.atomic_path(path) as part:
         with open(part, "wb") as stream:
-            np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history))
+            np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history),
+                     timings=json.dumps(list(timings)))
 
 
 def read_checkpoint(path: Path, fingerprint: str):
-    """(cycles done, t, q, qd, h_min history) from a checkpoint of the same case, else None."""
+    """(cycles done, t, q, qd, h_min history, timings) from a checkpoint of the same case, else None."""
     if not path.is_file():
         return None
     try:
@@ -114,7 +132,9 @@ def read_checkpoint(path: Path, fingerprint: str):
             if str(data["fingerprint"]) != fingerprint:
                 log.info("checkpoint %s belongs to other case settings: starting afresh", path)
                 return None
-            return int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"])
+            timings = json.loads(str(data["timings"])) if "timings" in data else []
+            return (int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"]),
+                    timings)
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
         return None
@@ -155,6 +175,11 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "fields": ", ".join(p.name for p in fields),
         **{f"summary.{k}": v for k, v in summary_values.items()},
+        **{f"timing.{name}": np.array([cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float)
+           for name in TIMING},
+        "timing.fields_io_s": run.fields_seconds,
+        "timing.description": "; ".join(f"{name} [{unit}]: {text}" for name, (unit, text) in TIMING.items())
+        + "; one value per computed cycle, the first cycle first",
         "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",
     })
     ds = build_dataset(case, cols, ideal, attrs=attrs)

@@ -32,12 +32,14 @@ import hashlib
 import logging
 import math
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 from tqdm import tqdm
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from solver import __version__
 from solver.case import Case, case_attributes, load_case
@@ -48,7 +50,7 @@ from solver.dynamics.multibody import accelerations, joint_reactions, rotation
 from solver.errors import InputError
 from solver.study import io
 from solver.study import results as results_io
-from solver.study.results import RunSummary
+from solver.study.results import TIMING, RunSummary
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +68,9 @@ class CycleOutput:
 
     columns: dict[str, np.ndarray]
     h_min_min: float
+    timing: dict[str, float] = dataclasses.field(default_factory=dict)  # see TIMING
+
+
 
 
 def _case_fingerprint(case: Case, joint: str) -> str:
@@ -88,10 +93,18 @@ class _Run:
         self.atol = np.concatenate([position, position * self.omega])
         self.step_deg = math.degrees(case.solver.step)
         self.steps = 0  # accepted integrator steps so far
+        self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
+        self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
 
     # -- integration ------------------------------------------------------------------------------
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
-        """One 720 deg cycle from (t0, q0, qd0) in chunks; returns (outputs per angle, end state)."""
+        """One 720 deg cycle from (t0, q0, qd0) in chunks; returns (outputs per angle, end state).
+
+        The outputs carry the cycle's ``timing`` (TIMING, without the checkpoint's I/O).
+        """
+        start = time.perf_counter()
+        film_before = self.model.stats.copy() if self.model is not None else None
+        steps_before, rejected = self.steps, 0
         motion = self.engine.crank_motion
         theta0 = 4 * math.pi * cycle
         n_out = int(round(720.0 / self.step_deg))
@@ -120,12 +133,24 @@ class _Run:
             row, qd = self._state_outputs(t, q, tr.qd[-1])  # the next interval starts from these velocities
             rows.append(row)
             self.steps += tr.n_steps
+            rejected += tr.n_rejected
             if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
                 progress(cycle, angles[k], rows[-1]["h_min"])
         columns = {k: np.array([r[k] for r in rows]) for k in rows[0]}
         columns["crank_angle"] = angles
         h_min = columns["h_min"]
-        return CycleOutput(columns, float(np.nanmin(h_min))), (t, q, qd)
+        wall = time.perf_counter() - start
+        timing = dict.fromkeys(TIMING, 0.0)
+        timing.update(wall_s=wall, steps=self.steps - steps_before, rejected_steps=rejected, multibody_s=wall)
+        if film_before is not None:
+            now = self.model.stats
+            timing.update(film_solves=now.solves - film_before.solves,
+                          vi_iterations=now.vi_iterations - film_before.vi_iterations,
+                          film_jacobians=now.jacobians - film_before.jacobians,
+                          film_solve_s=now.solve_seconds - film_before.solve_seconds,
+                          film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds)
+            timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
+        return CycleOutput(columns, float(np.nanmin(h_min)), timing), (t, q, qd)
 
     def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
@@ -208,22 +233,48 @@ class _Run:
 
     # -- film fields --------------------------------------------------------------------------------
     def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
-        """XDMF pressure / film thickness / asperity pressure at the case's field angles (mixed-fem only)."""
-        from solver.film.bearing import Kinematics  # dolfinx: only for a finite-element joint
-
+        """ParaView fields of the last cycle (mixed-fem only): the time series ``film_series.xdmf``
+        every ``solver.field_step_deg`` and single snapshots at ``solver.field_angles_deg``."""
         if self.model is None:
             return []
-        paths = []
+        from solver.film.bearing import Kinematics  # dolfinx: only for a finite-element joint
+
         cols = cycle.columns
-        for angle in self.case.solver.field_angles:
-            deg = math.degrees(angle)
-            k = int(np.argmin(np.abs(cols["crank_angle"] - deg)))
+        angles = cols["crank_angle"]
+
+        def solve_at(k: int) -> None:
             kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
                              (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
                              float(cols["omega_rel"][k]), 0.0)
             self.model.solve(kin)
-            paths.append(io.write_film_fields(directory, f"film_{cols['crank_angle'][k]:05.1f}deg", self.model))
+
+        paths = []
+        field_step = math.degrees(self.case.solver.field_step)
+        if field_step > 0:
+            every = int(round(field_step / self.step_deg))
+            series = io.FilmSeries(directory, "film_series", self.model)
+            try:
+                for k in range(0, len(angles), every):
+                    solve_at(k)
+                    series.write(angles[k])
+            except BaseException:
+                series.abort()
+                raise
+            paths.append(series.close())
+        for angle in self.case.solver.field_angles:
+            k = int(np.argmin(np.abs(angles - math.degrees(angle))))
+            solve_at(k)
+            paths.append(io.write_film_fields(directory, f"film_{angles[k]:05.1f}deg", self.model))
         return paths
+
+
+def describe_timing(timing: dict[str, float]) -> str:
+    """One line: the counts and where the seconds went (TIMING)."""
+    t = timing
+    return (f"{t['wall_s']:.1f} s; {t['film_solves']:.0f} film solves ({t['vi_iterations']:.0f} VI iterations) "
+            f"{t['film_solve_s']:.1f} s, {t['film_jacobians']:.0f} film Jacobians {t['film_jacobian_s']:.1f} s, "
+            f"{t['steps']:.0f} steps ({t['rejected_steps']:.0f} rejected), multibody/integrator "
+            f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s")
 
 
 def _ideal_cycle_output(ideal) -> CycleOutput:
@@ -279,7 +330,9 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
             cycle = _ideal_cycle_output(ideal)
         else:
             cycle, cycles_done, periodic = _cycles(run, out_dir, progress, resume)
+        begin = time.perf_counter()
         fields = run.write_fields(out_dir, cycle)
+        run.fields_seconds = time.perf_counter() - begin
         wall = time.perf_counter() - start
         summary = results_io.write_results(out_dir, case, run, cycle, ideal, joint=joint, cycles=cycles_done,
                                            periodic=periodic, wall_time=wall, fields=fields, comm=comm)
@@ -302,8 +355,9 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     fingerprint = _case_fingerprint(case, run.joint_name)
     checkpoint = out_dir / "checkpoint.npz"
     state = results_io.read_checkpoint(checkpoint, fingerprint) if resume else None
+    timings: list[dict[str, float]] = []
     if state is not None:
-        first, t0, q0, qd0, history = state
+        first, t0, q0, qd0, history, timings = state
         log.info("resuming after cycle %d from %s", first, checkpoint)
     else:
         first, history = 0, []
@@ -323,23 +377,32 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     periodic = False
     c = case.small_end.clearance
     try:
-        for index in range(first, case.solver.max_cycles):
-            cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
-            history.append(cycle.h_min_min)
-            change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
-            log.info("cycle %d: min h_min = %.4g um (change %.2g of the clearance)", index + 1, cycle.h_min_min * 1e6,
-                     change)
-            if comm.rank == 0:
-                results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history)
-            if change < case.solver.periodic_tolerance:
-                periodic = True
-                break
+        # log lines go above the progress bar instead of through it
+        with logging_redirect_tqdm(loggers=[logging.getLogger()]) if bar is not None else nullcontext():
+            for index in range(first, case.solver.max_cycles):
+                cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
+                history.append(cycle.h_min_min)
+                change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+                log.info("cycle %d: min h_min = %.4g um (change %.2g of the clearance)", index + 1,
+                         cycle.h_min_min * 1e6, change)
+                begin = time.perf_counter()
+                timings.append(cycle.timing)
+                if comm.rank == 0:
+                    results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history, timings)
+                cycle.timing["io_s"] = time.perf_counter() - begin
+                cycle.timing["wall_s"] += cycle.timing["io_s"]
+                log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
+                if change < case.solver.periodic_tolerance:
+                    periodic = True
+                    break
     finally:
         if bar is not None:
             bar.close()
     if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
+        timings.append(cycle.timing)
+    run.timings = timings
     if not periodic:
         log.warning("not periodic after %d cycles (tolerance %g of the clearance)", len(history),
                     case.solver.periodic_tolerance)

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import datetime
 import math
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,7 @@ import xarray as xr
 
 from solver import __version__
 from solver.case import FIELDS
+from solver.errors import InputError, read_toml_file
 from solver.study import io
 
 #: metric -> (units, long_name, plot scale, plot unit)
@@ -57,9 +57,8 @@ def case_parameters(case_dir: Path) -> dict[str, Any] | None:
     ``name`` and ``description`` are left out; absent optional keys are left out.
     """
     try:
-        with (Path(case_dir) / "case.toml").open("rb") as stream:
-            data = tomllib.load(stream)
-    except (OSError, tomllib.TOMLDecodeError):
+        data = read_toml_file(Path(case_dir) / "case.toml", "case file")
+    except InputError:
         return None
     values: dict[str, Any] = {}
     for spec in FIELDS:

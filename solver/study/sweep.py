@@ -61,12 +61,11 @@ import os
 import re
 import shutil
 import tempfile
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from solver.case import FIELDS, SECTIONS, FieldSpec, load_case
-from solver.errors import InputError
+from solver.errors import InputError, read_toml_file
 
 RANGE_KEYS = {"start", "stop", "num", "step"}
 MODES = ("product", "zip")
@@ -118,9 +117,8 @@ def is_sweep_file(path: Path) -> bool:
     if not path.is_file() or path.suffix != ".toml":
         return False
     try:
-        with path.open("rb") as stream:
-            return isinstance(tomllib.load(stream).get("sweep"), dict)
-    except (OSError, tomllib.TOMLDecodeError):
+        return isinstance(read_toml_file(path, "sweep file").get("sweep"), dict)
+    except InputError:
         return False
 
 
@@ -232,15 +230,7 @@ def load_sweep(path: str | Path, cases_dir: str | Path | None = None) -> Sweep:
     """
     file = Path(path).resolve()
     where = str(path)
-    try:
-        with file.open("rb") as stream:
-            data = tomllib.load(stream)
-    except FileNotFoundError:
-        raise InputError(f"sweep file not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise InputError(f"{where}: invalid TOML: {err}") from None
-    except OSError as err:
-        raise InputError(f"{where}: cannot read ({err.strerror})") from None
+    data = read_toml_file(path, "sweep file")
     table = data.get("sweep")
     if not isinstance(table, dict):
         raise InputError(f"{where}: no [sweep] table (a sweep file names a base case and the parameters)")
@@ -434,11 +424,7 @@ def expand(sweep: Sweep) -> list[Path]:
         InputError: a case is invalid (nothing is written), two cases have the same name, or an
             existing case directory differs from the expansion.
     """
-    with sweep.base.open("rb") as stream:
-        try:
-            base = tomllib.load(stream)
-        except tomllib.TOMLDecodeError as err:
-            raise InputError(f"{sweep.base}: invalid TOML: {err}") from None
+    base = read_toml_file(sweep.base, "sweep.base case file")
     rows = sweep.cases()
     names = [case_name(values) for values in rows]
     seen: dict[str, int] = {}
