@@ -201,3 +201,9 @@ def test_reference_table_lists_every_field_with_default_and_range():
         assert len(re.split(r"(?<!\\)\|", row)) == 7  # exactly five cells between unescaped pipes
     assert "| `engine.rod_mass_kg` | kg | 0.55 | > 0 |" in table
     assert "| `gas.combustion_start_deg` | deg | 350 | (180, 540) |" in table
+
+
+def test_the_readme_shows_the_current_case_table():
+    """The README's case-format table is exactly the one generated from FIELDS (kept current)."""
+    readme = (ROOT / "README.md").read_text()
+    assert case_reference_markdown().strip() in readme

@@ -82,7 +82,7 @@ class _JitNotice(logging.Handler):
         if not self.told and "Calling JIT C compiler" in record.getMessage():
             self.told = True
             logging.getLogger("solver.film").info(
-                "compiling the film's forms for this machine: once, about a minute; cached in ~/.cache/fenics")
+                "compiling the film's forms for this machine: once, 5-20 s; cached in ~/.cache/fenics")
 
 
 _HANDLER_TAG = "_tribo_handler"

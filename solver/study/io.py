@@ -14,6 +14,7 @@ import os
 import shutil
 import tempfile
 import warnings
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -122,6 +123,7 @@ class FilmSeries:
         self.xdmf.close()
         self.comm.Barrier()
         if self.comm.rank == 0:
+            merge_xdmf_time_series(self.tmp / f"{self.name}.xdmf", self.name)
             for suffix in (".xdmf", ".h5"):
                 os.replace(self.tmp / f"{self.name}{suffix}", self.directory / f"{self.name}{suffix}")
             shutil.rmtree(self.tmp, ignore_errors=True)
@@ -133,6 +135,40 @@ class FilmSeries:
         self.comm.Barrier()
         if self.comm.rank == 0:
             shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+def merge_xdmf_time_series(path: Path, name: str) -> None:
+    """Rewrite a dolfinx XDMF file so that each time step is one grid carrying every field.
+
+    dolfinx 0.5 writes each function as its own temporal collection: ParaView then reads a multiblock
+    with one copy of the mesh per field, each with one array, and a Calculator combining two fields
+    gives nothing (dolfinx issue #3026). Here the collections become one, whose grid at each time
+    references the mesh's topology and geometry once and holds all the attributes written at that
+    time; the HDF5 file is not touched. Rank 0 only, after the XDMFFile is closed.
+    """
+    xinclude = "http://www.w3.org/2001/XInclude"
+    ET.register_namespace("xi", xinclude)
+    tree = ET.parse(path)
+    domain = tree.getroot().find("Domain")
+    grids = domain.findall("Grid")
+    mesh = next(g for g in grids if g.get("GridType") == "Uniform")
+    collections = [g for g in grids if g.get("CollectionType") == "Temporal"]
+    steps: dict[str, list] = {}
+    for collection in collections:
+        for grid in collection.findall("Grid"):
+            steps.setdefault(grid.find("Time").get("Value"), []).extend(grid.findall("Attribute"))
+    merged = ET.Element("Grid", Name=name, GridType="Collection", CollectionType="Temporal")
+    for time_value in sorted(steps, key=float):
+        grid = ET.SubElement(merged, "Grid", Name=name, GridType="Uniform")
+        grid.append(mesh.find("Topology"))  # the same HDF5 datasets: no data duplicated
+        grid.append(mesh.find("Geometry"))
+        ET.SubElement(grid, "Time", Value=time_value)
+        grid.extend(steps[time_value])
+    for grid in collections + [mesh]:
+        domain.remove(grid)
+    domain.append(merged)
+    ET.indent(tree, space="  ")
+    tree.write(path, xml_declaration=True, encoding="utf-8")
 
 
 def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:

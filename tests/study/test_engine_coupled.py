@@ -164,17 +164,34 @@ def test_run_bad_case_is_one_line_exit_2(tmp_path, text, field):
     assert not (tmp_path / "bad" / "results" / "results.nc").exists()
 
 
-@pytest.mark.serial
-def test_coarse_mixed_fem_run_of_the_reference_case(tmp_path):
-    """The reference engine with the finite-element mixed film, coarse (mesh 0.15 R, 5 deg outputs,
-    one cycle), through the CLI: results with film and asperity quantities, ParaView fields at the
-    requested angles, and the physics of a firing cycle: the film thins to below 3 sigma after firing
-    TDC and the pin force follows the ideal one within 5 % of its peak at 90 % of the outputs (the
-    first cycle starts from a centred pin)."""
-    case = make_case(tmp_path / "reference-coarse", 'joint = "mixed-fem"\nmax_cycles = 1\nstep_deg = 5\n'
-                     'mesh_size = 0.15\nfield_angles_deg = [0, 380]\n')
-    proc = run_cli("run", str(case), "--json")
+@pytest.fixture(scope="module")
+def coarse_run(tmp_path_factory):
+    """The reference engine with the finite-element mixed film, coarse (mesh 0.15 R, 5 deg outputs, one
+    cycle), through the CLI as a user runs it, with an empty JIT cache (the forms are compiled)."""
+    import os
+    import subprocess
+    import sys
+
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("serial (a subprocess run)")
+    base = tmp_path_factory.mktemp("coarse")
+    case = make_case(base / "reference-coarse", 'joint = "mixed-fem"\nmax_cycles = 1\nstep_deg = 5\n'
+                     'mesh_size = 0.15\nfield_angles_deg = [0, 380]\nfield_step_deg = 10\n')
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "XDG_CACHE_HOME": str(base / "cache")}
+    env.pop("OMPI_COMM_WORLD_SIZE", None)
+    proc = subprocess.run([sys.executable, "-m", "solver", "run", str(case), "--json"], capture_output=True,
+                          text=True, cwd=ROOT, timeout=1200, env=env)
     assert proc.returncode == 0, proc.stderr
+    return case, proc
+
+
+@pytest.mark.serial
+def test_coarse_mixed_fem_run_of_the_reference_case(coarse_run):
+    """Results with film and asperity quantities, ParaView fields at the requested angles, and the
+    physics of a firing cycle: the film thins to below 3 sigma after firing TDC and the pin force
+    follows the ideal one within 5 % of its peak at 90 % of the outputs (the first cycle starts from a
+    centred pin)."""
+    case, proc = coarse_run
     summary = json.loads(proc.stdout)
     with xr.open_dataset(summary["results"]) as ds:
         assert int(ds.attrs["film_dofs"]) > 300  # the half film at 0.15 R: ~380 nodes
@@ -188,3 +205,78 @@ def test_coarse_mixed_fem_run_of_the_reference_case(tmp_path):
         assert (case / "results" / f"film_{angle}deg.xdmf").exists()
         assert (case / "results" / f"film_{angle}deg.h5").exists()
 
+
+@pytest.mark.serial
+def test_the_terminal_shows_only_what_matters(coarse_run):
+    """With the forms compiled in this run: one line announces it, no C compiler command line, no
+    line of another library's INFO, no log line twice (the two handlers printed each line twice)."""
+    _, proc = coarse_run
+    lines = [line.strip() for line in proc.stderr.replace("\r", "\n").splitlines()]
+    lines = [line for line in lines if line and "deg [" not in line]  # the progress bar's redraws
+    assert sum("compiling the film's forms" in line for line in lines) == 1, proc.stderr
+    assert not [line for line in lines if "gcc" in line or line.startswith("INFO:") or "-I/usr" in line], proc.stderr
+    assert len(lines) == len(set(lines)), proc.stderr
+    assert all(line.startswith(("INFO solver.", "WARNING solver.")) for line in lines), proc.stderr
+    assert any("finished in" in line for line in lines)
+
+
+@pytest.mark.serial
+def test_the_run_records_where_the_time_goes(coarse_run):
+    """timing.* attributes and run.log, per cycle. The parts add up to the cycle's wall time (1e-9 s:
+    they are differences of the same clock readings); every accepted step solves the film at least
+    once and every solve takes at least one VI iteration; the log line carries the same counts."""
+    case, _ = coarse_run
+    with xr.open_dataset(case / "results" / "results.nc") as ds:
+        t = {k.removeprefix("timing."): np.atleast_1d(v) for k, v in ds.attrs.items() if k.startswith("timing.")
+             and k not in ("timing.description", "timing.fields_io_s")}
+        assert float(ds.attrs["timing.fields_io_s"]) > 0
+        assert len(t["wall_s"]) == int(ds.attrs["cycles"]) == 1
+    parts = t["film_solve_s"] + t["film_jacobian_s"] + t["multibody_s"] + t["io_s"]
+    np.testing.assert_allclose(parts, t["wall_s"], rtol=0, atol=1e-9)
+    assert np.all(t["film_solve_s"] > 0) and np.all(t["multibody_s"] > 0) and np.all(t["film_jacobian_s"] > 0)
+    assert np.all(t["film_solves"] >= t["steps"]) and np.all(t["steps"] >= 144)  # 720 deg / 5 deg outputs
+    assert np.all(t["vi_iterations"] >= t["film_solves"]) and np.all(t["film_jacobians"] >= 1)
+    log_text = (case / "results" / "run.log").read_text()
+    line = next(row for row in log_text.splitlines() if "film solves" in row)
+    assert f"{t['film_solves'][0]:.0f} film solves ({t['vi_iterations'][0]:.0f} VI iterations)" in line
+    assert f"{t['steps'][0]:.0f} steps ({t['rejected_steps'][0]:.0f} rejected)" in line
+
+
+
+@pytest.mark.serial
+def test_paraview_plays_the_cycle(coarse_run):
+    """ParaView's own XDMF reader (pvbatch, headless) opens film_series.xdmf as one grid with all the
+    fields at every time step: times 0, 10, ..., 720 deg (field_step_deg = 10); at 380 deg the peak
+    pressure is the results' p_max there (the same film state solved again: 1e-6 relative), the film
+    thickness lies between h_min and c + |e| (the nodes miss the exact minimum by at most
+    c eps (dtheta)^2 / 2 with dtheta the element's angular size, 0.15 rad), the asperity pressure is
+    zero (to round-off) where the film is thick and positive where it is in contact."""
+    import os
+    import shutil
+    import subprocess
+
+    case, _ = coarse_run
+    pvbatch = shutil.which("pvbatch")
+    assert pvbatch, "ParaView is missing: run scripts/setup.sh"
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PMI_"))}
+    env.pop("DISPLAY", None)  # headless: reading renders nothing
+    series = case / "results" / "film_series.xdmf"
+    probe = Path(__file__).with_name("paraview_probe.py")
+    done = subprocess.run([pvbatch, "--no-mpi", str(probe), str(series), "380"], capture_output=True, text=True,
+                          timeout=300, env=env)
+    assert done.returncode == 0, done.stderr
+    seen = json.loads(next(line for line in done.stdout.splitlines() if line.startswith("{")))
+    assert seen["timesteps"] == [float(a) for a in range(0, 721, 10)]
+    assert seen["data_type"] == "vtkUnstructuredGrid"  # one grid, not one block per field
+    assert set(seen["point_arrays"]) == {"pressure_Pa", "film_thickness_m", "asperity_pressure_Pa"}
+    with xr.open_dataset(case / "results" / "results.nc") as ds:
+        at = ds.sel(crank_angle=380.0)
+        assert seen["n_points"] == int(ds.attrs["film_dofs"])
+        p_max, h_min, eps = float(at.p_max), float(at.h_min), float(at.eps)
+        clearance = float(ds.attrs["small_end.clearance_um"]) * 1e-6
+    assert seen["ranges"]["pressure_Pa"][1] == pytest.approx(p_max, rel=1e-6)
+    h_low, h_high = seen["ranges"]["film_thickness_m"]
+    assert h_min * (1 - 1e-9) <= h_low <= h_min + clearance * eps * 0.15**2 / 2
+    assert h_high <= clearance * (1 + eps) * (1 + 1e-9)
+    p_c_low, p_c_high = seen["ranges"]["asperity_pressure_Pa"]
+    assert p_c_high > 0.0 and abs(p_c_low) <= 1e-12 * p_c_high  # exp-Chebyshev representation: round-off
