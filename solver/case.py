@@ -402,13 +402,6 @@ class Surface:
         """m, composite roughness sqrt(sigma_pin^2 + sigma_bushing^2)."""
         return math.hypot(self.sigma_pin, self.sigma_bushing)
 
-    @property
-    def effective_modulus(self) -> float:
-        """Pa, E' with 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 unless given (DESIGN 3.3)."""
-        if self.composite_modulus is not None:
-            return self.composite_modulus
-        return 1.0 / ((1.0 - self.nu_pin**2) / self.E_pin + (1.0 - self.nu_bushing**2) / self.E_bushing)
-
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Solver:

@@ -62,3 +62,15 @@ def run_cli(*args: str, cwd: Path | None = None, timeout: float = 600):
     env.pop("OMPI_COMM_WORLD_SIZE", None)
     return subprocess.run([sys.executable, "-m", "solver", *args], capture_output=True, text=True,
                           cwd=cwd or ROOT, timeout=timeout, env=env)
+
+
+def assert_one_line_error(result, *fragments: str) -> None:
+    """Bad input as the CLI must report it: exit 2, one line ``error: ...`` with the fragments, no
+    traceback, nothing on stdout."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+    assert result.stdout == ""

@@ -20,6 +20,7 @@ from solver.case import (
     case_reference_markdown,
     load_case,
 )
+from solver.dynamics.joint import surface_from_case
 from solver.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +49,9 @@ def test_defaults_are_the_reference_engine_of_design_3_7(tmp_path):
     assert (f.eta_beta_sigma, f.sigma_over_beta, f.asperity_friction) == pytest.approx((0.05, 0.001, 0.1))
     assert (f.E_pin, f.nu_pin, f.E_bushing, f.nu_bushing) == pytest.approx((210e9, 0.3, 115e9, 0.33))
     # DESIGN 3.3: 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2
-    assert f.effective_modulus == pytest.approx(1.0 / ((1 - 0.09) / 210e9 + (1 - 0.33**2) / 115e9), rel=1e-12)
+    models = surface_from_case(f)  # the film's models of this section
+    assert models.modulus == pytest.approx(1.0 / ((1 - 0.09) / 210e9 + (1 - 0.33**2) / 115e9), rel=1e-12)
+    assert models.sigma == pytest.approx(f.sigma, rel=1e-15) and models.asperity_friction == f.asperity_friction
     assert f.sigma == pytest.approx(math.sqrt(0.1**2 + 0.3**2) * 1e-6)
 
 
@@ -92,7 +95,7 @@ def test_units_are_converted_once(tmp_path):
     assert case.gas.crankcase_pressure == pytest.approx(1.2e5)
     assert case.small_end.clearance == pytest.approx(5e-6)
     assert case.surface.E_pin == pytest.approx(200e9)
-    assert case.surface.effective_modulus == pytest.approx(120e9)
+    assert surface_from_case(case.surface).modulus == pytest.approx(120e9)
     assert case.solver.step == pytest.approx(math.radians(0.25))
     assert case.solver.joint == "short-bearing" and case.solver.max_cycles == 3
     assert case.solver.field_angles == pytest.approx((0.0, math.radians(375.5)))

@@ -230,6 +230,14 @@ class DryContactJoint(ClearanceJoint):
         return JointForces(np.real(out[:2]).copy(), float(np.real(out[2])), float(np.real(out[3])), jac)
 
 
+def surface_from_case(surf) -> Surface:
+    """The film's Surface (roughness and contact models) of a case's ``surface`` section (the pin is the journal)."""
+    return Surface(sigma_journal=surf.sigma_pin, sigma_bushing=surf.sigma_bushing, peklenik_gamma=surf.peklenik_gamma,
+                   eta_beta_sigma=surf.eta_beta_sigma, sigma_over_beta=surf.sigma_over_beta, E_journal=surf.E_pin,
+                   nu_journal=surf.nu_pin, E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing,
+                   E_composite=surf.composite_modulus, asperity_friction=surf.asperity_friction)
+
+
 def joint_from_case(case: Case, engine, comm, joint: str):
     """The clearance-joint law of the case: (joint, film model or None). ``ideal`` gives (None, None)."""
     se, oil, surf, solver = case.small_end, case.oil, case.surface, case.solver
@@ -259,11 +267,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
                       supply_hole_angle=oil.supply_hole_angle if oil.inlet == "hole" else None,
                       supply_hole_diameter=oil.supply_hole_diameter if oil.inlet == "hole" else 0.0,
                       inlet="max-gap" if oil.inlet == "max-gap" else "none")
-    surface = Surface(sigma_journal=surf.sigma_pin, sigma_bushing=surf.sigma_bushing,
-                      peklenik_gamma=surf.peklenik_gamma, eta_beta_sigma=surf.eta_beta_sigma,
-                      sigma_over_beta=surf.sigma_over_beta, E_journal=surf.E_pin, nu_journal=surf.nu_pin,
-                      E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing, E_composite=surf.composite_modulus,
-                      asperity_friction=surf.asperity_friction)
+    surface = surface_from_case(surf)
     model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
                       roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=solver.slip_regularisation)

@@ -65,19 +65,19 @@ VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
-#: Where the time of a cycle goes: name -> (unit, meaning). Logged per cycle and stored in the results'
+#: Where the time of a cycle goes: name -> meaning (names ending in _s are seconds, the others counts). Logged per cycle and stored in the results'
 #: attributes as ``timing.<name>`` (one value per computed cycle, the first cycle first).
-TIMING: dict[str, tuple[str, str]] = {
-    "wall_s": ("s", "wall time of the cycle (integration, outputs and checkpoint)"),
-    "film_solves": ("1", "film solves (each an SNES VI solve, its assembly and functionals)"),
-    "vi_iterations": ("1", "SNES VI (Newton) iterations of all film solves"),
-    "film_jacobians": ("1", "film Jacobians (sensitivities with the converged active set)"),
-    "steps": ("1", "accepted integrator steps"),
-    "rejected_steps": ("1", "rejected integrator step attempts (error test or Newton failure)"),
-    "film_solve_s": ("s", "seconds in film solves"),
-    "film_jacobian_s": ("s", "seconds in film Jacobians"),
-    "multibody_s": ("s", "seconds in the multibody system, integrator and Python (the rest of the cycle)"),
-    "io_s": ("s", "seconds writing the checkpoint"),
+TIMING: dict[str, str] = {
+    "wall_s": "wall time of the cycle (integration, outputs and checkpoint)",
+    "film_solves": "film solves (each an SNES VI solve, its assembly and functionals)",
+    "vi_iterations": "SNES VI (Newton) iterations of all film solves",
+    "film_jacobians": "film Jacobians (sensitivities with the converged active set)",
+    "steps": "accepted integrator steps",
+    "rejected_steps": "rejected integrator step attempts (error test or Newton failure)",
+    "film_solve_s": "seconds in film solves",
+    "film_jacobian_s": "seconds in film Jacobians",
+    "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",
+    "io_s": "seconds writing the checkpoint",
 }
 
 
@@ -178,7 +178,7 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         **{f"timing.{name}": np.array([cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float)
            for name in TIMING},
         "timing.fields_io_s": run.fields_seconds,
-        "timing.description": "; ".join(f"{name} [{unit}]: {text}" for name, (unit, text) in TIMING.items())
+        "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
         + "; one value per computed cycle, the first cycle first",
         "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",
     })

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import assert_one_line_error
+
 ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / "cases" / "reference-2000rpm"
 
@@ -29,16 +31,6 @@ def case_dir(tmp_path: Path, toml: str, files: dict[str, str] | None = None) -> 
     for name, text in (files or {}).items():
         (directory / name).write_text(text)
     return directory
-
-
-def assert_one_line_error(result: subprocess.CompletedProcess, *fragments: str) -> None:
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], (fragment, lines[0])
-    assert result.stdout == ""
 
 
 BAD_CASES = {

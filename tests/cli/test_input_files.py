@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import assert_one_line_error
+
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.serial
 
@@ -28,15 +30,6 @@ def solver(*arguments: str, cwd: Path) -> subprocess.CompletedProcess:
     env.pop("OMPI_COMM_WORLD_SIZE", None)
     return subprocess.run([sys.executable, "-m", "solver", *arguments], cwd=cwd, capture_output=True, text=True,
                           timeout=300, env=env)
-
-
-def assert_one_line_error(result: subprocess.CompletedProcess, *fragments: str) -> None:
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], (fragment, lines[0])
 
 
 def listing(directory: Path) -> list[str]:
