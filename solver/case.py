@@ -234,7 +234,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("solver", "field_angles_deg", "field_angles", list, [0.0, 180.0, 360.0, 380.0, 540.0], DEG, 0.0, 720.0,
               False, doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)"),
     _f("solver", "field_step_deg", "field_step", 5.0, DEG, 0.0, 720.0, closed=True, unit="deg",
-       doc="crank-angle step of the ParaView time series of the film fields (a multiple of step_deg; 0: none)"),
+       doc="crank-angle step of the ParaView time series of the film fields (rounded to a multiple of step_deg, at least one; 0: none)"),
     _f("solver", "slip_regularisation_m_s", "slip_regularisation", 1e-3, 1.0, 0.0, unit="m/s",
        doc="sliding speed below which asperity and Coulomb friction are smoothed"),
 )
@@ -423,10 +423,6 @@ class Solver:
         if abs(count - round(count)) > 1e-9 * count:
             allowed = "(0, 10) with 720 / step_deg an integer"
             raise out_of_range("solver.step_deg", f"{self.step / DEG:g}", allowed)
-        ratio = self.field_step / self.step
-        if self.field_step > 0 and abs(ratio - round(ratio)) > 1e-9 * ratio:
-            raise out_of_range("solver.field_step_deg", f"{self.field_step / DEG:g}",
-                               f"0 or a multiple of solver.step_deg = {self.step / DEG:g} in (0, 720]")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -44,15 +44,15 @@ def read_text_file(path: str | Path, what: str) -> str:
     try:
         data = path.read_bytes()
     except FileNotFoundError:
-        raise InputError(f"{what}: file not found: {path}") from None
+        raise InputError(f"{what} = {str(path)!r}: file not found") from None
     except OSError as err:
-        raise InputError(f"{what}: cannot read {path} ({err.strerror})") from None
+        raise InputError(f"{what} = {str(path)!r}: cannot read ({err.strerror})") from None
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise InputError(f"{what}: {path} is not a UTF-8 text file (invalid byte at offset {err.start})") from None
+        raise InputError(f"{what} = {str(path)!r}: not a UTF-8 text file (invalid byte at offset {err.start})") from None
     if "\x00" in text:
-        raise InputError(f"{what}: {path} is not a text file (it contains NUL bytes)")
+        raise InputError(f"{what} = {str(path)!r}: not a text file (it contains NUL bytes)")
     return text.removeprefix("\ufeff")  # a byte-order mark some editors write
 
 

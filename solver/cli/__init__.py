@@ -71,20 +71,6 @@ class _OursOrWarnings(logging.Filter):
         return record.name == "solver" or record.name.startswith("solver.") or record.levelno >= logging.WARNING
 
 
-class _JitNotice(logging.Handler):
-    """Turns FFCx's "Calling JIT C compiler" into one line of ours, once per process."""
-
-    def __init__(self):
-        super().__init__(logging.INFO)
-        self.told = False
-
-    def emit(self, record: logging.LogRecord) -> None:
-        if not self.told and "Calling JIT C compiler" in record.getMessage():
-            self.told = True
-            logging.getLogger("solver.film").info(
-                "compiling the film's forms for this machine: once, 5-20 s; cached in ~/.cache/fenics")
-
-
 _HANDLER_TAG = "_tribo_handler"
 
 
@@ -104,12 +90,6 @@ def setup_logging(rank: int, verbose: bool) -> None:
     ours = logging.getLogger("solver")
     ours.handlers[:] = [h for h in ours.handlers if not getattr(h, _HANDLER_TAG, False)]
     ours.setLevel(logging.DEBUG if verbose else logging.INFO)
-    jit = logging.getLogger("ffcx")
-    jit.setLevel(logging.INFO)  # so that its "Calling JIT C compiler" reaches the notice
-    jit.handlers[:] = [h for h in jit.handlers if not getattr(h, _HANDLER_TAG, False)]
-    notice = _JitNotice()
-    setattr(notice, _HANDLER_TAG, True)
-    jit.addHandler(notice)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -31,6 +31,7 @@ components with the film's Jacobian.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
@@ -61,14 +62,38 @@ def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
 
 log = logging.getLogger(__name__)
 
-# FFCx logs "Calling JIT C compiler" at INFO only when a form is compiled, not when it is loaded from
-# the cache: the CLI turns that record into one line for the user (solver.cli.setup_logging).
-_FORM_COMPILER = {"verbosity": logging.INFO}
+class _QuietJit(logging.Filter):
+    """While a form is compiled: FFCx's INFO records and the C compiler's command lines (logged to
+    the root logger by distutils) are dropped; FFCx's "Calling JIT C compiler" becomes one line of
+    ours, once per process. A form loaded from the cache says nothing."""
+
+    announced = False
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.name == "ffcx" and "Calling JIT C compiler" in record.getMessage() and not _QuietJit.announced:
+            _QuietJit.announced = True
+            log.info("compiling the film's forms for this machine: once, 5-20 s; cached in ~/.cache/fenics")
+        return record.levelno >= logging.WARNING
+
+
+@contextlib.contextmanager
+def _quiet_jit():
+    """Compile forms, expressions and elements quietly (see _QuietJit)."""
+    quiet = _QuietJit()
+    loggers = [logging.getLogger("ffcx"), logging.getLogger()]
+    for logger in loggers:
+        logger.addFilter(quiet)
+    try:
+        yield
+    finally:
+        for logger in loggers:
+            logger.removeFilter(quiet)
 
 
 def _form(expression):
-    """dolfinx.fem.form with the form compiler's parameters of this package."""
-    return fem.form(expression, form_compiler_params=_FORM_COMPILER)
+    """dolfinx.fem.form with FFCx's verbosity at INFO: only then does it log "Calling JIT C compiler",
+    which _QuietJit turns into one line; call it under _quiet_jit()."""
+    return fem.form(expression, form_compiler_params={"verbosity": logging.INFO})
 
 INLETS = ("max-gap", "none")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
@@ -228,6 +253,12 @@ class FilmModel:
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float = DEFAULT_MESH_SIZE,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
                  options: dict | None = None, half: bool = True):
+        with _quiet_jit():
+            self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
+                        half)
+
+    def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
+               half) -> None:
         self.bearing = bearing
         self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
                                  omega_ref=omega_ref)
@@ -561,6 +592,10 @@ class FilmModel:
     # -- fields ---------------------------------------------------------------------------------
     def fields_si(self) -> dict[str, fem.Function]:
         """Pressure [Pa] and film thickness [m] as Functions on the film mesh (for output)."""
+        with _quiet_jit():
+            return self._fields_si()
+
+    def _fields_si(self) -> dict[str, fem.Function]:
         p = fem.Function(self.V, name="pressure_Pa")
         p.x.array[:] = self.P.x.array * self.scales.pressure
         h = fem.Function(self.V, name="film_thickness_m")

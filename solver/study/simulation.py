@@ -251,7 +251,7 @@ class _Run:
         paths = []
         field_step = math.degrees(self.case.solver.field_step)
         if field_step > 0:
-            every = int(round(field_step / self.step_deg))
+            every = max(1, int(round(field_step / self.step_deg)))  # a multiple of the output step
             series = io.FilmSeries(directory, "film_series", self.model)
             try:
                 for k in range(0, len(angles), every):
