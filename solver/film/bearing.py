@@ -53,6 +53,7 @@ from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
 from solver.film.scaling import FilmScales
+from solver.film.tensors import MidpointOperator
 
 
 def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
@@ -295,6 +296,10 @@ class FilmModel:
         self.bcs = self._boundary_conditions()
         self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
                                        lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
+        if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
+            coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
+            self.solver.assembler = MidpointOperator(self.V, self.solver.A, coefficients, self.bcs).assemble
+            self.solver.update()
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         self._last: Kinematics | None = None

@@ -50,6 +50,67 @@ DEFAULT_OPTIONS: dict[str, str | float | int] = {
 _instance_counter = itertools.count()
 
 
+class FixedPatternLU:
+    """Preconditioner (exact solver) for the reduced Newton systems of ``vinewtonrsls``.
+
+    The reduced-space method solves ``A_II dP_I = -r_I`` on the inactive (pressurised) set I of each
+    iteration. PETSc extracts A_II as a new matrix, whose nonzero pattern differs from the last one's,
+    so a plain LU redoes ordering, symbolic and numeric factorisation every iteration. Here the full
+    matrix K = A with the active rows and columns replaced by identity rows is factorised instead: its
+    pattern never changes (PETSc's LU then refactorises numerically only), and ``K x = b`` with b = 0
+    on the active set gives ``x_I = A_II^-1 b_I``, ``x_A = 0``: the same iterates. The factorisation of
+    the converged inactive set also serves the sensitivities (``solve_full``).
+    """
+
+    def __init__(self, solver: "CavitatingSolver"):
+        self.solver = solver
+        self.K = solver.A.duplicate(copy=True)
+        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.ksp = PETSc.KSP().create(solver.comm)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        self.ksp.getPC().setFactorSolverType(_lu_package(solver.comm))
+        self.b, self.x = self.K.createVecs()
+        self.inactive: PETSc.IS | None = None  # of the current factorisation
+        self.factorisations = 0
+
+    def factor(self, inactive: PETSc.IS) -> None:
+        """Numerically factorise K for this inactive set (owned global indices)."""
+        A, K = self.solver.A, self.K
+        A.copy(K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        start, end = K.getOwnershipRange()
+        keep = np.zeros(end - start, dtype=bool)
+        keep[inactive.getIndices() - start] = True
+        active = (np.flatnonzero(~keep) + start).astype(PETSc.IntType)
+        K.zeroRowsColumns(active, diag=1.0)
+        self.ksp.setOperators(K)
+        self.ksp.setUp()
+        self.inactive = inactive
+        self.factorisations += 1
+
+    def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """x = K^-1 b (b must vanish on the active set of the factorisation)."""
+        self.ksp.solve(b, x)
+
+    # -- PCShell interface (petsc4py's python PC) ------------------------------------------------
+    def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
+        self.factor(self.solver.snes.getVIInactiveSet())
+
+    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        self.b.set(0.0)
+        sub = self.b.getSubVector(self.inactive)
+        x.copy(sub)
+        self.b.restoreSubVector(self.inactive, sub)
+        self.ksp.solve(self.b, self.x)
+        sub = self.x.getSubVector(self.inactive)
+        sub.copy(y)
+        self.x.restoreSubVector(self.inactive, sub)
+
+    def destroy(self, pc=None) -> None:
+        for obj in (self.ksp, self.K, self.b, self.x):
+            obj.destroy()
+
+
 def _lu_package(comm) -> str:
     """MUMPS in parallel; PETSc's own LU in serial (faster for these small 2D problems)."""
     if comm.size > 1:
@@ -70,7 +131,9 @@ class CavitatingSolver:
     """
 
     def __init__(self, a: fem.FormMetaClass, l: fem.FormMetaClass, P: fem.Function, bcs: list,
-                 lower: float, options: dict | None = None):
+                 lower: float, options: dict | None = None, fixed_pattern: bool = True):
+        #: replaces the dolfinx assembly of A and l when set: ``assembler(A, l_vector)`` (film.tensors)
+        self.assembler = None
         self.a, self.l, self.P, self.bcs = a, l, P, bcs
         V = P.function_space
         self.comm = V.mesh.comm
@@ -111,20 +174,29 @@ class CavitatingSolver:
         self._sens_ksp: PETSc.KSP | None = None
         self.iterations = 0
         self.update()
+        self.lu: FixedPatternLU | None = None
+        if fixed_pattern:  # numeric-only refactorisations of one fixed pattern (FixedPatternLU)
+            self.lu = FixedPatternLU(self)
+            pc = self.snes.getKSP().getPC()
+            pc.setType(PETSc.PC.Type.PYTHON)
+            pc.setPythonContext(self.lu)
 
     # -- assembly -------------------------------------------------------------------------------
     def update(self) -> None:
         """Assemble A and l for the current coefficients (call after the kinematics change)."""
-        self.A.zeroEntries()
-        fem_petsc.assemble_matrix(self.A, self.a, bcs=self.bcs)
-        self.A.assemble()
-        with self.rhs.localForm() as local:
-            local.set(0.0)
-        fem_petsc.assemble_vector(self.rhs, self.l)
-        # r = A P + l on interior rows with P = g on Dirichlet dofs: l += A[:, bc] g; r_bc = P_bc - g.
-        fem_petsc.apply_lifting(self.rhs, [self.a], bcs=[self.bcs], scale=-1.0)
-        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        fem_petsc.set_bc(self.rhs, self.bcs, scale=-1.0)
+        if self.assembler is not None:
+            self.assembler(self.A, self.rhs)
+        else:
+            self.A.zeroEntries()
+            fem_petsc.assemble_matrix(self.A, self.a, bcs=self.bcs)
+            self.A.assemble()
+            with self.rhs.localForm() as local:
+                local.set(0.0)
+            fem_petsc.assemble_vector(self.rhs, self.l)
+            # r = A P + l on interior rows with P = g on Dirichlet dofs: l += A[:, bc] g; r_bc = P_bc - g.
+            fem_petsc.apply_lifting(self.rhs, [self.a], bcs=[self.bcs], scale=-1.0)
+            self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            fem_petsc.set_bc(self.rhs, self.bcs, scale=-1.0)
         # |l| = 1 in the homogeneous case (solve() normalises); otherwise relative to |l|.
         atol = 1e-11 if self._homogeneous else max(1e-11 * self.rhs.norm(), 1e-14)
         self.snes.setTolerances(atol=atol, rtol=self._rtol, stol=0.0)
@@ -196,8 +268,31 @@ class CavitatingSolver:
         """dP = -A_II^{-1} dr_I on the inactive set, 0 elsewhere, for each residual derivative.
 
         ``dr`` are the derivatives of the residual with respect to parameters at fixed P (Dirichlet
-        rows must be zero). One factorisation of A_II per solution, reused across calls.
+        rows must be zero). One factorisation per solution, reused across calls: with the fixed
+        pattern, the VI's last factorisation when its inactive set is the converged one (the usual
+        case), else one numeric refactorisation.
         """
+        if self.lu is not None:
+            if self._sens_ksp is None:
+                inactive = self.inactive_set()
+                if self.lu.inactive is None or not inactive.equal(self.lu.inactive):
+                    self.lu.factor(inactive)
+                self._sens_ksp = self.lu.ksp
+            out = []
+            keep = self.lu.inactive
+            for d in dr:
+                b = d.duplicate()
+                b.set(0.0)
+                sub_b, sub_d = b.getSubVector(keep), d.getSubVector(keep)
+                sub_d.copy(sub_b)
+                b.restoreSubVector(keep, sub_b)
+                d.restoreSubVector(keep, sub_d)
+                b.scale(-1.0)
+                dP = d.duplicate()
+                self.lu.solve_full(b, dP)
+                b.destroy()
+                out.append(dP)
+            return out
         if self._sens_ksp is None:
             self._inactive = self.inactive_set()
             A_II = self.A.createSubMatrix(self._inactive, self._inactive)
@@ -227,6 +322,8 @@ class CavitatingSolver:
     def close(self) -> None:
         for obj in (self.snes, self.A, self.rhs, self.residual_vec):
             obj.destroy()
+        if self.lu is not None:
+            self.lu.destroy()
         self._sens_ksp = None
 
     def __enter__(self) -> CavitatingSolver:

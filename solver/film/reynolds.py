@@ -117,17 +117,25 @@ def flow_factors(geometry: FilmGeometry, roughness: Roughness | None):
             roughness.shear_flow(Hs, mod=ufl), roughness.contact_factor(Hs, mod=ufl))
 
 
-def reynolds_integrand(P, v, geometry: FilmGeometry, roughness: Roughness | None = None):
-    """Integrand of the weak residual F(P; v) of the averaged Reynolds equation (module docstring)."""
+def reynolds_coefficients(geometry: FilmGeometry, roughness: Roughness | None = None):
+    """(k_theta, k_z, f): the residual's integrand is ``k_theta (t.grad P)(t.grad v) + k_z (e_z.grad P)
+    (e_z.grad v) + f v`` with k_theta = H^3 phi_x, k_z = H^3 phi_y and f the right-hand side."""
     g, prm = geometry, geometry.params
     phi_x, phi_y, phi_s, phi_c = flow_factors(g, roughness)
-    D = g.H**3 * (phi_x * ufl.outer(g.tangent, g.tangent) + phi_y * ufl.outer(g.axial, g.axial))
     source = g.U_mean * phi_c * g.dH_dtheta + phi_c * g.dH_dT
     if roughness is not None:
         # U_d S dphi_s/dtheta, with dphi_s/dtheta = dphi_s/dHs * dH/dtheta / S
         Hs = ufl.variable(g.H / prm.S)
         dphi_s = ufl.diff(roughness.shear_flow(Hs, mod=ufl), Hs)
         source += g.U_half_diff * dphi_s * g.dH_dtheta
+    return g.H**3 * phi_x, g.H**3 * phi_y, source
+
+
+def reynolds_integrand(P, v, geometry: FilmGeometry, roughness: Roughness | None = None):
+    """Integrand of the weak residual F(P; v) of the averaged Reynolds equation (module docstring)."""
+    g = geometry
+    k_theta, k_z, source = reynolds_coefficients(g, roughness)
+    D = k_theta * ufl.outer(g.tangent, g.tangent) + k_z * ufl.outer(g.axial, g.axial)
     return ufl.inner(D * ufl.grad(P), ufl.grad(v)) + source * v
 
 

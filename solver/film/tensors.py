@@ -1,0 +1,109 @@
+"""The Reynolds operator and source from tensors precomputed once per mesh (P1, midpoint rule, serial).
+
+With P1 elements on flat triangles and the midpoint rule (the film operator's quadrature, degree
+2k - 1), the weak form ``integral(D grad P . grad v + f v)`` with ``D = k_theta t t + k_z e_z e_z``
+(solver.film.reynolds) gives, on a cell K with centroid c, area |K| and basis gradients G::
+
+    A_K = |K| (k_theta(c) (G t(c))(G t(c))^T + k_z(c) (G e_z)(G e_z)^T),   l_K = |K| f(c) / 3
+
+So the matrix values are two fixed sparse matrices (values x cells) times the per-cell coefficients,
+and the source one more: ``values = T_theta k_theta + T_z k_z``, ``l = T_f f``. The coefficients
+are the same UFL expressions as the form's (``reynolds_coefficients``), evaluated at the cell
+midpoints by a compiled ``fem.Expression``: the UFL form stays the definition, and a test checks the
+tensors against dolfinx's assembly of it to 1e-12. One coefficient evaluation and three sparse
+products replace two assemblies (0.8 ms + 0.4 ms at 1620 unknowns). Dirichlet rows and columns
+are treated as dolfinx does (zeroed, 1 on the diagonal, the source lifted).
+
+Serial only (the batch runs one case per rank); on a distributed mesh the film assembles with dolfinx.
+"""
+
+from __future__ import annotations
+
+from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse
+import ufl
+from dolfinx import fem
+
+#: the midpoint of the reference triangle: the one point of the degree-1 rule (weight 1/2)
+MIDPOINT = np.array([[1.0 / 3.0, 1.0 / 3.0]])
+
+
+class MidpointOperator:
+    """Fills the PETSc matrix and source vector of the film for the current coefficients.
+
+    Args:
+        V: the P1 pressure space (serial mesh).
+        A: the film's PETSc matrix (its sparsity pattern is used and kept).
+        coefficients: UFL expressions (k_theta, k_z, f) of the residual (reynolds_coefficients).
+        bcs: the Dirichlet conditions of the film.
+    """
+
+    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list):
+        mesh = V.mesh
+        if mesh.comm.size != 1 or V.ufl_element().degree() != 1:
+            raise ValueError("MidpointOperator: P1 on a serial mesh only")
+        n_cells = mesh.topology.index_map(2).size_local
+        cells = np.arange(n_cells, dtype=np.int32)
+        dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
+        X = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]]  # (cell, vertex, xyz)
+        J = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)  # (cell, xyz, 2)
+        JtJ = np.einsum("cki,ckj->cij", J, J)
+        reference_gradients = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])  # (basis, 2)
+        # physical gradients of the basis (pseudo-inverse of the manifold's Jacobian): (cell, xyz, basis)
+        G = np.einsum("cki,cij,bj->ckb", J, np.linalg.inv(JtJ), reference_gradients)
+        weight = 0.5 * np.sqrt(np.linalg.det(JtJ))  # |K|: reference weight 1/2 x |det J|
+        centroid = X.mean(axis=1)
+        r = np.hypot(centroid[:, 0], centroid[:, 1])
+        tangent = np.stack([-centroid[:, 1] / r, centroid[:, 0] / r, np.zeros(n_cells)], axis=1)
+        g_theta = np.einsum("ckb,ck->cb", G, tangent)
+        g_z = G[:, 2, :]
+        local_theta = weight[:, None, None] * g_theta[:, :, None] * g_theta[:, None, :]
+        local_z = weight[:, None, None] * g_z[:, :, None] * g_z[:, None, :]
+        # the matrix's CSR layout: the position of every (row, column) of every cell
+        self.indptr, self.indices, _ = A.getValuesCSR()
+        nnz = len(self.indices)
+        rows = np.repeat(dofs, 3, axis=1).ravel()  # (cell, i, j) flattened with j fastest
+        cols = np.tile(dofs, (1, 3)).ravel()
+        position = np.empty(len(rows), dtype=np.int64)
+        for k, (row, col) in enumerate(zip(rows, cols)):
+            start, end = self.indptr[row], self.indptr[row + 1]
+            position[k] = start + np.searchsorted(self.indices[start:end], col)
+        cell_of = np.repeat(cells, 9)
+        self.T_theta = scipy.sparse.csr_matrix((local_theta.ravel(), (position, cell_of)), shape=(nnz, n_cells))
+        self.T_z = scipy.sparse.csr_matrix((local_z.ravel(), (position, cell_of)), shape=(nnz, n_cells))
+        n_dofs = V.dofmap.index_map.size_local
+        self.T_f = scipy.sparse.csr_matrix((np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))),
+                                           shape=(n_dofs, n_cells))
+        self.expression = fem.Expression(ufl.as_vector(list(coefficients)), MIDPOINT)
+        self.cells = cells
+        # Dirichlet dofs: their rows and columns are zeroed and their diagonal set to 1 (dolfinx's way)
+        bc_dofs = np.unique(np.concatenate([bc.dof_indices()[0] for bc in bcs])) if bcs else np.zeros(0, np.int32)
+        row_of = np.repeat(np.arange(n_dofs), np.diff(self.indptr))
+        is_bc = np.zeros(n_dofs, dtype=bool)
+        is_bc[bc_dofs] = True
+        self.constrained = is_bc[row_of] | is_bc[self.indices]
+        self.bc_diagonal = np.flatnonzero(is_bc[row_of] & (row_of == self.indices))
+        self.bc_dofs = bc_dofs
+        self.bc_values = np.zeros(n_dofs)
+        for bc in bcs:
+            index = bc.dof_indices()[0]
+            self.bc_values[index] = bc.g.x.array[index]
+        self.lift = bool(np.any(self.bc_values[bc_dofs] != 0.0))
+        self.values = np.zeros(nnz)
+
+    def assemble(self, A: PETSc.Mat, rhs: PETSc.Vec) -> None:
+        """A and the source (lifted, with -g on the Dirichlet rows) for the current constants."""
+        k = self.expression.eval(self.cells)  # (cell, 3): k_theta, k_z, f at the midpoints
+        values = self.T_theta @ k[:, 0] + self.T_z @ k[:, 1]
+        source = self.T_f @ k[:, 2]
+        if self.lift:  # l += A[:, bc] g, with A before the constraints
+            full = scipy.sparse.csr_matrix((values, self.indices, self.indptr), shape=(len(source),) * 2)
+            source += full[:, self.bc_dofs] @ self.bc_values[self.bc_dofs]
+        values[self.constrained] = 0.0
+        values[self.bc_diagonal] = 1.0
+        source[self.bc_dofs] = -self.bc_values[self.bc_dofs]
+        A.setValuesCSR(self.indptr, self.indices, values)
+        A.assemble()
+        rhs.setArray(source)

@@ -1,0 +1,84 @@
+"""The film's fast paths give what the UFL forms and PETSc's reduced-space VI give.
+
+- ``MidpointOperator`` (solver.film.tensors): the operator and source from precomputed tensors
+  against dolfinx's assembly of the same UFL form (with the Dirichlet rows and the lifting), to
+  1e-12 of the largest entry: both sum the same products in another order, so they differ by
+  round-off (~1e-15) only. Smooth and rough films, with a pressurised supply hole (lifting).
+- ``FixedPatternLU`` (solver.film.cavitation): the VI with numeric-only refactorisations of the full
+  matrix against PETSc's reduced LU: the same number of VI iterations and the same pressure to
+  1e-10 (the linear systems are the same, solved with another pivot order), and the sensitivities
+  (the film Jacobian) to 1e-9.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import pytest
+
+from solver.film.bearing import Bearing, FilmModel, Kinematics
+from solver.film.surface import Surface
+
+pytestmark = pytest.mark.serial
+R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
+ROUGH = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
+
+
+def _model(rough: bool, hole: bool, **kwargs) -> FilmModel:
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none",
+                      supply_pressure=3e5 if hole else 0.0, supply_hole_angle=0.5 if hole else None,
+                      supply_hole_diameter=3e-3 if hole else 0.0)
+    surface = ROUGH if rough else None
+    return FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1,
+                     roughness=surface.roughness() if rough else None, contact=surface.contact() if rough else None,
+                     **kwargs)
+
+
+STATE = Kinematics((0.93 * C * math.cos(2.0), 0.93 * C * math.sin(2.0)), (0.2 * C * OMEGA, -0.4 * C * OMEGA), OMEGA,
+                   0.2 * OMEGA)
+
+
+@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
+@pytest.mark.parametrize("hole", [False, True], ids=["edges", "supply-hole"])
+def test_tensors_equal_the_assembly_of_the_form(rough, hole):
+    with _model(rough, hole) as model:
+        assert model.solver.assembler is not None  # serial P1: the tensor path is the default
+        model.set_kinematics(STATE)
+        solver = model.solver
+        solver.update()
+        A_tensor, l_tensor = solver.A.copy(), solver.rhs.copy()
+        solver.assembler, assembler = None, solver.assembler  # dolfinx's assembly of the UFL form
+        solver.update()
+        solver.assembler = assembler
+        dense_t, dense_f = A_tensor.convert("dense").getDenseArray(), solver.A.convert("dense").getDenseArray()
+        assert np.abs(dense_t - dense_f).max() <= 1e-12 * np.abs(dense_f).max()
+        assert np.abs(l_tensor.array - solver.rhs.array).max() <= 1e-12 * np.abs(solver.rhs.array).max()
+        assert np.abs(solver.rhs.array).max() > 0 and np.count_nonzero(dense_f) > 5 * model.dofs
+        if hole:  # the lifting did something: source values on the hole's neighbours
+            assert np.abs(solver.rhs.array).max() > 1e-3
+
+
+@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
+def test_fixed_pattern_lu_gives_the_reduced_iterates(rough):
+    states = [Kinematics((e * C * math.cos(a), e * C * math.sin(a)), (r * C * OMEGA, 0.0), OMEGA, 0.0)
+              for e, a, r in [(0.3, 0.0, 0.0), (0.9, 1.0, 0.5), (0.95, 2.5, -1.0), (0.5, 4.0, 2.0), (0.97, 5.0, 0.0)]]
+    results = {}
+    for fixed in (True, False):
+        with _model(rough, False, options=None) as model:
+            if not fixed:  # PETSc's reduced LU, as before
+                model.solver.lu = None
+                pc = model.solver.snes.getKSP().getPC()
+                pc.setType(PETSc.PC.Type.LU)
+            runs = []
+            for state in states:
+                result = model.solve(state)
+                runs.append((result.iterations, model.P.x.array.copy(), model.jacobian().matrix))
+            results[fixed] = runs
+    for (its_f, P_f, J_f), (its_r, P_r, J_r) in zip(results[True], results[False]):
+        assert its_f == its_r
+        assert np.abs(P_f - P_r).max() <= 1e-10 * np.abs(P_r).max()
+        assert np.abs(J_f - J_r).max() <= 1e-9 * np.abs(J_r).max()
