@@ -62,4 +62,4 @@ def read_toml_file(path: str | Path, what: str) -> dict:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise InputError(f"{path}: invalid TOML: {err}") from None
+        raise InputError(f"{what} = {str(path)!r}: invalid TOML: {err}") from None

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import weakref
 
 from petsc4py import PETSc
 
@@ -42,7 +43,7 @@ DEFAULT_OPTIONS: dict[str, str | float | int] = {
     "snes_rtol": 1e-10,
     "snes_atol": 1e-10,
     "snes_stol": 0.0,
-    "snes_max_it": 50,
+    "snes_max_it": 300,  # a cold start on a fine mesh hands the active set back a node layer per iteration
     "ksp_type": "preonly",
     "pc_type": "lu",
 }
@@ -63,7 +64,9 @@ class FixedPatternLU:
     """
 
     def __init__(self, solver: "CavitatingSolver"):
-        self.solver = solver
+        # a weak reference: the PC (owned by the solver's SNES) holds this object, so a strong one
+        # would make a cycle through C that Python's garbage collector cannot see
+        self.solver = weakref.proxy(solver)
         self.K = solver.A.duplicate(copy=True)
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(solver.comm)
@@ -91,6 +94,9 @@ class FixedPatternLU:
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """x = K^-1 b (b must vanish on the active set of the factorisation)."""
         self.ksp.solve(b, x)
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:  # a zero pivot: no Jacobian rather than a wrong one
+            raise FilmNotConverged("film sensitivities: the LU factorisation failed", reason, 0)
 
     # -- PCShell interface (petsc4py's python PC) ------------------------------------------------
     def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
@@ -105,6 +111,8 @@ class FixedPatternLU:
         sub = self.x.getSubVector(self.inactive)
         sub.copy(y)
         self.x.restoreSubVector(self.inactive, sub)
+        if self.ksp.getConvergedReason() < 0:  # a failed factorisation: a NaN step makes SNES diverge
+            y.set(float("nan"))
 
     def destroy(self, pc=None) -> None:
         for obj in (self.ksp, self.K, self.b, self.x):
@@ -175,7 +183,7 @@ class CavitatingSolver:
         self.iterations = 0
         self.update()
         self.lu: FixedPatternLU | None = None
-        if fixed_pattern:  # numeric-only refactorisations of one fixed pattern (FixedPatternLU)
+        if fixed_pattern and merged["snes_type"] == "vinewtonrsls":  # it reads the VI's inactive set  # numeric-only refactorisations of one fixed pattern (FixedPatternLU)
             self.lu = FixedPatternLU(self)
             pc = self.snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
@@ -201,6 +209,8 @@ class CavitatingSolver:
         atol = 1e-11 if self._homogeneous else max(1e-11 * self.rhs.norm(), 1e-14)
         self.snes.setTolerances(atol=atol, rtol=self._rtol, stol=0.0)
         self._sens_ksp = None
+        if getattr(self, "lu", None) is not None:
+            self.lu.inactive = None  # its factorisation belongs to the previous operator
 
     def _residual(self, snes, x, r) -> None:
         self.A.mult(x, r)

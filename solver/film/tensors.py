@@ -44,6 +44,8 @@ class MidpointOperator:
         mesh = V.mesh
         if mesh.comm.size != 1 or V.ufl_element().degree() != 1:
             raise ValueError("MidpointOperator: P1 on a serial mesh only")
+        if mesh.geometry.dofmap.links(0).size != 3:
+            raise ValueError("MidpointOperator: flat (affine) triangles only")
         n_cells = mesh.topology.index_map(2).size_local
         cells = np.arange(n_cells, dtype=np.int32)
         dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
@@ -70,6 +72,8 @@ class MidpointOperator:
         for k, (row, col) in enumerate(zip(rows, cols)):
             start, end = self.indptr[row], self.indptr[row + 1]
             position[k] = start + np.searchsorted(self.indices[start:end], col)
+        if not np.array_equal(self.indices[position], cols):
+            raise RuntimeError("MidpointOperator: a cell's entry is not in the matrix's sparsity pattern")
         cell_of = np.repeat(cells, 9)
         self.T_theta = scipy.sparse.csr_matrix((local_theta.ravel(), (position, cell_of)), shape=(nnz, n_cells))
         self.T_z = scipy.sparse.csr_matrix((local_z.ravel(), (position, cell_of)), shape=(nnz, n_cells))

@@ -131,8 +131,11 @@ class FilmSeries:
         return self.directory / f"{self.name}.xdmf"
 
     def abort(self) -> None:
-        self.xdmf.close()
-        self.comm.Barrier()
+        """Leave nothing behind (after an error: no collective call, it could wait forever)."""
+        try:
+            self.xdmf.close()
+        except Exception:  # noqa: BLE001 - already closed, or the error that brought us here
+            pass
         if self.comm.rank == 0:
             shutil.rmtree(self.tmp, ignore_errors=True)
 

@@ -31,15 +31,15 @@ import dataclasses
 import hashlib
 import logging
 import math
+import sys
 import time
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 from tqdm import tqdm
-from tqdm.contrib.logging import logging_redirect_tqdm
 
 from solver import __version__
 from solver.case import Case, case_attributes, load_case
@@ -257,15 +257,41 @@ class _Run:
                 for k in range(0, len(angles), every):
                     solve_at(k)
                     series.write(angles[k])
+                paths.append(series.close())
             except BaseException:
                 series.abort()
                 raise
-            paths.append(series.close())
         for angle in self.case.solver.field_angles:
             k = int(np.argmin(np.abs(angles - math.degrees(angle))))
             solve_at(k)
             paths.append(io.write_film_fields(directory, f"film_{angles[k]:05.1f}deg", self.model))
         return paths
+
+
+class _AboveTheBar:
+    """A stream for log handlers that prints through ``tqdm.write``: above the progress bar."""
+
+    def write(self, text: str) -> None:
+        if text.strip():
+            tqdm.write(text.rstrip("\n"), file=sys.stderr)
+
+    def flush(self) -> None:
+        pass
+
+
+@contextmanager
+def _logs_above_the_bar():
+    """The terminal's log handlers (stderr) write above the progress bar meanwhile; their filters and
+    formats stay as they are (tqdm's own redirect drops the filters)."""
+    swapped = []
+    for handler in logging.getLogger().handlers:
+        if type(handler) is logging.StreamHandler and handler.stream is sys.stderr:
+            swapped.append((handler, handler.setStream(_AboveTheBar())))
+    try:
+        yield
+    finally:
+        for handler, stream in swapped:
+            handler.setStream(stream)
 
 
 def describe_timing(timing: dict[str, float]) -> str:
@@ -370,7 +396,7 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     def report(cycle_index, angle, h_min):
         if bar is not None:
             bar.n = cycle_index * 720 + angle
-            bar.set_postfix_str(f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um")
+            bar.set_postfix_str(f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um", refresh=False)
             bar.refresh()
 
     cycle = None
@@ -378,7 +404,7 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     c = case.small_end.clearance
     try:
         # log lines go above the progress bar instead of through it
-        with logging_redirect_tqdm(loggers=[logging.getLogger()]) if bar is not None else nullcontext():
+        with _logs_above_the_bar() if bar is not None else nullcontext():
             for index in range(first, case.solver.max_cycles):
                 cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
                 history.append(cycle.h_min_min)
