@@ -5,7 +5,7 @@ bearing width and eccentricity, for journal rotation and for pure squeeze.
                                                         [--eccentricities 0.2,0.6,0.95]
 
 For each B/D, eccentricity and motion the load is computed at the element size given (``--mesh-size``,
-relative to the pin radius, default: the film's default) and at two refinements (1/2 and 1/4 of it);
+relative to the pin radius; default: the film's default for that width, default_mesh_size) and at two refinements (1/2 and 1/4 of it);
 the mesh-converged value is the Richardson extrapolation of the two finest with the observed order
 (P1 with the midpoint rule converges as h^2). Prints the error of the given size, the observed
 order and the unknowns, as a markdown table. The inlet is the max-gap line (the bearing command's
@@ -20,7 +20,7 @@ import time
 
 from mpi4py import MPI
 
-from solver.film.bearing import DEFAULT_MESH_SIZE, Bearing, FilmModel, Kinematics
+from solver.film.bearing import Bearing, FilmModel, Kinematics, default_mesh_size
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 100.0
 
@@ -44,13 +44,14 @@ def main() -> None:
     parser.add_argument("--ratios", default="0.125,0.25,0.5,1,2", help="B/D values")
     parser.add_argument("--eccentricities", default="0.2,0.6,0.95")
     args = parser.parse_args()
-    h = args.mesh_size or DEFAULT_MESH_SIZE
-    print(f"element size {h:g} R (refined to {h / 2:g} R and {h / 4:g} R for the reference)")
-    print("| B/D | eps | motion | dofs | error of the load [%] | observed order |")
-    print("|---|---|---|---|---|---|")
+    print("element size: " + (f"{args.mesh_size:g} R" if args.mesh_size else "the film's default for each B/D")
+          + " (refined twice by halving for the reference)")
+    print("| B/D | eps | motion | element size / R | dofs | error of the load [%] | observed order |")
+    print("|---|---|---|---|---|---|---|")
     worst = 0.0
     start = time.perf_counter()
     for ratio in (float(x) for x in args.ratios.split(",")):
+        h = args.mesh_size or default_mesh_size(2 * R * ratio, R)
         for eps in (float(x) for x in args.eccentricities.split(",")):
             for motion in ("rotation", "squeeze"):
                 (w0, dofs), (w1, _), (w2, _) = (load(ratio, eps, motion, h / k) for k in (1, 2, 4))
@@ -59,7 +60,7 @@ def main() -> None:
                 converged = w2 + (w2 - w1) / (2**p - 1)
                 error = 100 * (w0 / converged - 1)
                 worst = max(worst, abs(error))
-                print(f"| {ratio:g} | {eps:g} | {motion} | {dofs} | {error:+.2f} | {order:.2f} |", flush=True)
+                print(f"| {ratio:g} | {eps:g} | {motion} | {h:.4g} | {dofs} | {error:+.2f} | {order:.2f} |", flush=True)
     print(f"largest error {worst:.2f} %; {time.perf_counter() - start:.0f} s")
 
 

@@ -126,7 +126,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=0.0, help="d(eps)/dt along the line of centres [1/s] (squeeze)")
     n = parser.add_argument_group("numerics and output")
     n.add_argument("--mesh-size", type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1] (element size / R)"),
-                   default=None, help="element size / radius (default 0.05)")
+                   default=None, help="element size / radius (default: 0.07, and at least 10 elements across the half width)")
     n.add_argument("--degree", type=int, choices=(1, 2), default=1, help="pressure element degree (default 1)")
     n.add_argument("--json", action="store_true", help="print one JSON object")
     n.add_argument("--output", type=Path, default=None, help="directory for the XDMF field and the PNG pressure map")
@@ -156,7 +156,6 @@ def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     _check(args)
     from solver.film.bearing import (  # dolfinx: after the checks
-        DEFAULT_MESH_SIZE,
         FilmModel,
         Kinematics,
         equilibrium,
@@ -168,7 +167,7 @@ def run(args, comm) -> int:
     rate = args.eccentricity_rate
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
-    model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size or DEFAULT_MESH_SIZE,
+    model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size,
                       degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3)
     setup_time = time.perf_counter() - start

@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="highest journal speed [rpm] (default 10000)")
     parser.add_argument("--points", type=int, default=25, help="number of speeds, log-spaced (default 25)")
     parser.add_argument("--mesh-size", type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1]"),
-                        default=None, help="element size / radius (default 0.07)")
+                        default=None, help="element size / radius (default: 0.07, and at least 10 elements across the half width)")
     parser.add_argument("--output", type=Path, default=Path("stribeck"), help="output directory (default ./stribeck)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
 
@@ -81,7 +81,7 @@ def run(args, comm) -> int:
         raise InputError(f"--points = {args.points} is out of range (allowed: >= 2)")
     if not args.speed_min < args.speed_max:
         raise InputError(f"--speed-min = {args.speed_min:g} is out of range (allowed: < --speed-max = {args.speed_max:g})")
-    from solver.film.bearing import DEFAULT_MESH_SIZE, FilmModel  # dolfinx: after the arguments are checked
+    from solver.film.bearing import FilmModel  # dolfinx: after the arguments are checked
 
     bearing = bearing_from_args(args)
     surface = surface_from_args(args)
@@ -92,7 +92,7 @@ def run(args, comm) -> int:
     # developed (f -> mu_f) at every speed of the sweep.
     slowest_sliding = args.radius * args.speed_min * 2 * math.pi / 60
     with FilmModel(bearing, comm, omega_ref=args.speed_max * 2 * math.pi / 60, roughness=surface.roughness(),
-                   contact=surface.contact(), mesh_size=args.mesh_size or DEFAULT_MESH_SIZE,
+                   contact=surface.contact(), mesh_size=args.mesh_size,
                    slip_regularisation=1e-3 * slowest_sliding) as model:
         bar = None
         if comm.rank == 0 and not args.json:

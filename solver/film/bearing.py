@@ -100,6 +100,14 @@ INLETS = ("max-gap", "none")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
 STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
 DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
+AXIAL_ELEMENTS = 10  # at least this many elements across the half width (bench/bearing_mesh_convergence.py)
+
+
+def default_mesh_size(width: float, radius: float) -> float:
+    """Element size / R that resolves both directions: DEFAULT_MESH_SIZE around the bearing, and at
+    least AXIAL_ELEMENTS across the half width, where the pressure falls to the edges (a narrow
+    bearing with 0.07 R gets two or three elements there and loses ~7 % of its load at B/D = 1/8)."""
+    return min(DEFAULT_MESH_SIZE, 0.5 * width / radius / AXIAL_ELEMENTS)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -241,7 +249,7 @@ class FilmModel:
         bearing: geometry and oil.
         comm: communicator of the mesh and solver (never COMM_WORLD implicitly).
         omega_ref: reference angular speed of the scaling [rad/s].
-        mesh_size: element size / R.
+        mesh_size: element size / R (None: default_mesh_size of the bearing).
         degree: polynomial degree of the pressure (1 or 2).
         roughness: Patir-Cheng flow factors (solver.film.flow_factors.PatirCheng); None: smooth film.
         contact: Greenwood-Tripp asperity contact (solver.film.contact.GreenwoodTripp); None: no contact.
@@ -251,7 +259,7 @@ class FilmModel:
             the whole width (same results to the discretisation error, twice the unknowns).
     """
 
-    def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float = DEFAULT_MESH_SIZE,
+    def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
                  options: dict | None = None, half: bool = True):
         with _quiet_jit():
@@ -276,6 +284,8 @@ class FilmModel:
         # aligned surfaces, edges at the same pressure, a hole on the mid-plane: the film is symmetric
         # about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and every
         # integral over the film is doubled (solver.film.mesh)
+        if mesh_size is None:
+            mesh_size = default_mesh_size(bearing.width, R)
         self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=half)
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm
