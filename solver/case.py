@@ -225,7 +225,8 @@ FIELDS: tuple[FieldSpec, ...] = (
        doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
     FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
               doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
-    _f("solver", "mesh_size", "mesh_size", 0.07, 1.0, 0.0, 1.0, doc="film element size / pin radius"),
+    _f("solver", "mesh_size", "mesh_size", None, 1.0, 0.0, 1.0,
+       doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the half width"),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
               doc="at most this many 720 deg cycles (the last one is reported)"),
@@ -409,7 +410,7 @@ class Solver:
 
     step: float = _field("solver", "step")  # rad, output crank-angle step
     joint: str = "mixed-fem"
-    mesh_size: float = _field("solver", "mesh_size")  # element size / pin radius
+    mesh_size: float | None = _field("solver", "mesh_size")  # element size / pin radius; None: the film's default
     rtol: float = _field("solver", "rtol")
     max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance

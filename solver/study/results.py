@@ -169,7 +169,8 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
     attrs.update({
         "status": "complete", "solver_version": __version__, "joint": joint, "cycles": cycles,
         "periodic": "true" if periodic else "false", "wall_time_s": wall_time,
-        "mesh_size": case.solver.mesh_size, "film_dofs": run.model.dofs if run.model is not None else 0,
+        "mesh_size": run.model.mesh_spec.element_size if run.model is not None else "none",
+        "film_dofs": run.model.dofs if run.model is not None else 0,
         "rtol": case.solver.rtol, "atol": "1e-4 clearance on positions, x crank speed on velocities",
         "periodic_tolerance": case.solver.periodic_tolerance,
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
