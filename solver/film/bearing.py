@@ -306,9 +306,15 @@ class FilmModel:
         self.bcs = self._boundary_conditions()
         self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
                                        lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
+        self._operator = None
         if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
             coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
-            self.solver.assembler = MidpointOperator(self.V, self.solver.A, coefficients, self.bcs).assemble
+            names = list(self._midpoint_integrands)
+            self._operator = MidpointOperator(self.V, self.solver.A, coefficients, self.bcs,
+                                              integrals=[self._midpoint_integrands[n] for n in names])
+            self._operator_integral_names = names
+            self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(names)]
+            self.solver.assembler = self._operator.assemble
             self.solver.update()
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
@@ -374,6 +380,10 @@ class FilmModel:
         scalars = {name: (e, group) for name, (e, _, _, group) in self._outputs.items() if name not in self._force_vectors}
         scalars.update({name: (e, "contact") for name, e in extra.items()})
         self._scalars = _functionals_by_group(self.mesh, scalars, groups)
+        # the midpoint-rule functionals independent of P (the Couette torques): the tensor operator
+        # can integrate them in its own evaluation of the coefficients (see _setup)
+        self._midpoint_integrands = {name: e for name, (e, group) in scalars.items() if group == "film"
+                                     and _is_zero(ufl.derivative(e, P, v))}
         variables = list(g.variables().values())
         # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
         # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
@@ -531,6 +541,8 @@ class FilmModel:
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
         raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
+        if self._operator is not None:  # integrated with the operator's coefficients, at this state
+            raw.update(zip(self._operator_integral_names, self._operator.integrals))
         for names, functionals in self._scalars:
             raw.update(zip(names, self._integrate(functionals)))
         values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}

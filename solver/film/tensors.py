@@ -38,9 +38,11 @@ class MidpointOperator:
         A: the film's PETSc matrix (its sparsity pattern is used and kept).
         coefficients: UFL expressions (k_theta, k_z, f) of the residual (reynolds_coefficients).
         bcs: the Dirichlet conditions of the film.
+        integrals: UFL integrands independent of P, integrated by the same midpoint rule in the same
+            evaluation (``self.integrals`` after each ``assemble``): the Couette friction torques.
     """
 
-    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list):
+    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list, integrals=()):
         mesh = V.mesh
         if mesh.comm.size != 1 or V.ufl_element().degree() != 1:
             raise ValueError("MidpointOperator: P1 on a serial mesh only")
@@ -80,7 +82,9 @@ class MidpointOperator:
         n_dofs = V.dofmap.index_map.size_local
         self.T_f = scipy.sparse.csr_matrix((np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))),
                                            shape=(n_dofs, n_cells))
-        self.expression = fem.Expression(ufl.as_vector(list(coefficients)), MIDPOINT)
+        self.expression = fem.Expression(ufl.as_vector(list(coefficients) + list(integrals)), MIDPOINT)
+        self.weight = weight  # |K|: the midpoint rule's weight of each cell
+        self.integrals = np.zeros(len(integrals))
         self.cells = cells
         # Dirichlet dofs: their rows and columns are zeroed and their diagonal set to 1 (dolfinx's way)
         bc_dofs = np.unique(np.concatenate([bc.dof_indices()[0] for bc in bcs])) if bcs else np.zeros(0, np.int32)
@@ -99,7 +103,8 @@ class MidpointOperator:
 
     def assemble(self, A: PETSc.Mat, rhs: PETSc.Vec) -> None:
         """A and the source (lifted, with -g on the Dirichlet rows) for the current constants."""
-        k = self.expression.eval(self.cells)  # (cell, 3): k_theta, k_z, f at the midpoints
+        k = self.expression.eval(self.cells)  # (cell, 3 + integrals): k_theta, k_z, f, ... at the midpoints
+        self.integrals = self.weight @ k[:, 3:]
         values = self.T_theta @ k[:, 0] + self.T_z @ k[:, 1]
         source = self.T_f @ k[:, 2]
         if self.lift:  # l += A[:, bc] g, with A before the constraints

@@ -82,3 +82,19 @@ def test_fixed_pattern_lu_gives_the_reduced_iterates(rough):
         assert its_f == its_r
         assert np.abs(P_f - P_r).max() <= 1e-10 * np.abs(P_r).max()
         assert np.abs(J_f - J_r).max() <= 1e-9 * np.abs(J_r).max()
+
+
+@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
+def test_couette_torques_integrated_with_the_operator(rough):
+    """The Couette friction integrals taken in the operator's evaluation of the coefficients equal
+    the same integrands integrated by the quadrature functionals (midpoint rule both: 1e-12)."""
+    from solver.film.bearing import QuadratureFunctionals
+
+    with _model(rough, False) as model:
+        model.set_kinematics(STATE)
+        model.solver.update()
+        names = model._operator_integral_names
+        assert set(names) == {"viscous_couette_journal", "viscous_couette_bushing"}
+        reference = QuadratureFunctionals(model.mesh, [model._midpoint_integrands[n] for n in names], 1)()
+        assert np.abs(model._operator.integrals - reference).max() <= 1e-12 * np.abs(reference).max()
+        assert np.abs(reference).min() > 0
