@@ -536,7 +536,8 @@ class FilmModel:
         return functionals(self._in_contact if functionals.contact_only else None)
 
     def _assemble(self, form) -> float:
-        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+        value = fem.assemble_scalar(form)
+        return value if self.comm.size == 1 else self.comm.allreduce(value, op=MPI.SUM)
 
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
@@ -561,7 +562,7 @@ class FilmModel:
             local = (float(values[i]), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi), float(coords[i, 2]))
         else:
             local = (-math.inf, 0.0, 0.0)
-        return max(self.comm.allgather(local))
+        return local if self.comm.size == 1 else max(self.comm.allgather(local))
 
     def jacobian(self) -> FilmJacobian:
         """Exact derivatives of forces and torques w.r.t. (ecc_x, ecc_y, ecc_rate_x, ecc_rate_y, omega_rel), SI."""
@@ -723,7 +724,7 @@ class QuadratureFunctionals:
         if len(cells):
             values = self.expression.eval(cells).reshape(len(cells), len(self.weights), self.size)
             local = np.einsum("cqn,q->n", values, self.weights)
-        return self.comm.allreduce(local, op=MPI.SUM)
+        return local if self.comm.size == 1 else self.comm.allreduce(local, op=MPI.SUM)
 
 
 def _functionals_by_group(mesh, integrands: dict, groups: dict) -> list[tuple[list, QuadratureFunctionals]]:

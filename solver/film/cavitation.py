@@ -89,6 +89,7 @@ class FixedPatternLU:
         self.ksp.setOperators(K)
         self.ksp.setUp()
         self.inactive = inactive
+        self.local = inactive.getIndices() - start  # the reduced vectors' entries, in order
         self.factorisations += 1
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
@@ -103,14 +104,12 @@ class FixedPatternLU:
         self.factor(self.solver.snes.getVIInactiveSet())
 
     def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
-        self.b.set(0.0)
-        sub = self.b.getSubVector(self.inactive)
-        x.copy(sub)
-        self.b.restoreSubVector(self.inactive, sub)
+        # the reduced vectors hold, in order, the owned entries of the inactive set (owned indices)
+        b = np.zeros(self.b.getLocalSize())
+        b[self.local] = x.getArray(readonly=True)
+        self.b.setArray(b)
         self.ksp.solve(self.b, self.x)
-        sub = self.x.getSubVector(self.inactive)
-        sub.copy(y)
-        self.x.restoreSubVector(self.inactive, sub)
+        y.setArray(self.x.getArray(readonly=True)[self.local])
         if self.ksp.getConvergedReason() < 0:  # a failed factorisation: a NaN step makes SNES diverge
             y.set(float("nan"))
 
@@ -253,7 +252,7 @@ class CavitatingSolver:
         self.iterations = self.snes.getIterationNumber()
         if reason <= 0:
             raise FilmNotConverged("film solve did not converge", reason, self.iterations)
-        violation = self.comm.allreduce(float(np.max(self.lower.x.array - self.P.x.array, initial=0.0)), op=_max_op())
+        violation = _max(self.comm, float(np.max(self.lower.x.array - self.P.x.array, initial=0.0)))
         if violation > 1e-8 * max(1.0, self.pressure_scale()):
             raise FilmNotConverged(f"film solve violated the cavitation bound by {violation:.3g}", reason, self.iterations)
         self._sens_ksp = None
@@ -269,7 +268,7 @@ class CavitatingSolver:
         x = self.P.vector.getArray(readonly=True)
         r = self.residual_vec.getArray(readonly=True)
         lo = self.lower.vector.getArray(readonly=True)
-        scale = max(1.0, self.comm.allreduce(float(np.max(np.abs(r), initial=0.0)), op=_max_op()))
+        scale = max(1.0, _max(self.comm, float(np.max(np.abs(r), initial=0.0))))
         active = (x <= lo + 1e-12 * max(1.0, self.pressure_scale())) & (r > 1e-10 * scale)
         start = self.P.vector.getOwnershipRange()[0]
         return PETSc.IS().createGeneral(np.flatnonzero(~active).astype(np.int32) + start, comm=self.comm)
@@ -289,18 +288,14 @@ class CavitatingSolver:
                     self.lu.factor(inactive)
                 self._sens_ksp = self.lu.ksp
             out = []
-            keep = self.lu.inactive
+            local = self.lu.local
+            b = self.lu.b
             for d in dr:
-                b = d.duplicate()
-                b.set(0.0)
-                sub_b, sub_d = b.getSubVector(keep), d.getSubVector(keep)
-                sub_d.copy(sub_b)
-                b.restoreSubVector(keep, sub_b)
-                d.restoreSubVector(keep, sub_d)
-                b.scale(-1.0)
+                values = np.zeros(b.getLocalSize())
+                values[local] = -d.getArray(readonly=True)[local]  # -dr on the inactive set, 0 elsewhere
+                b.setArray(values)
                 dP = d.duplicate()
                 self.lu.solve_full(b, dP)
-                b.destroy()
                 out.append(dP)
             return out
         if self._sens_ksp is None:
@@ -341,6 +336,11 @@ class CavitatingSolver:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _max(comm, value: float) -> float:
+    """The largest value over the ranks (no message on one rank: mpi4py's allreduce pickles)."""
+    return value if comm.size == 1 else comm.allreduce(value, op=_max_op())
 
 
 def _land_op():
