@@ -242,6 +242,36 @@ class FilmStats:
         return dataclasses.replace(self)
 
 
+class FrameTurn:
+    """Carries a nodal field on the film mesh to a solution frame turned by delta about the axis:
+    ``new(theta, z) = old(theta + delta, z)``, by linear interpolation on a triangulation of the
+    nodes in (theta, z) (periodic in theta). Serial; used for the VI's warm start."""
+
+    def __init__(self, V):
+        from scipy.spatial import Delaunay  # only the max-gap inlet needs it
+
+        self.size = V.dofmap.index_map.size_local
+        x = V.tabulate_dof_coordinates()[: self.size]
+        self.theta = np.arctan2(x[:, 1], x[:, 0]) % (2 * math.pi)
+        self.z = x[:, 2]
+        two_pi = 2 * math.pi
+        points = np.concatenate([np.column_stack([self.theta + shift, self.z]) for shift in (0.0, two_pi, -two_pi)])
+        self.node = np.tile(np.arange(self.size), 3)
+        self.triangulation = Delaunay(points)
+
+    def __call__(self, values: np.ndarray, delta: float) -> np.ndarray:
+        query = np.column_stack([(self.theta + delta) % (2 * math.pi), self.z])
+        simplex = self.triangulation.find_simplex(query)
+        inside = simplex >= 0  # (a node on the hull may fall outside by round-off: it keeps its value)
+        transform = self.triangulation.transform[simplex[inside]]
+        b = np.einsum("ijk,ik->ij", transform[:, :2], query[inside] - transform[:, 2])
+        weights = np.column_stack([b, 1.0 - b.sum(axis=1)])
+        corners = self.node[self.triangulation.simplices[simplex[inside]]]
+        out = values.copy()
+        out[inside] = np.einsum("ij,ij->i", weights, values[corners])
+        return out
+
+
 class FilmModel:
     """Finite-element film of one bearing, reused across solves (see module docstring).
 
@@ -258,6 +288,12 @@ class FilmModel:
         half: solve the half z >= 0 of the film (it is symmetric about the mid-plane); False meshes
             the whole width (same results to the discretisation error, twice the unknowns).
     """
+
+    # rad: the warm start is turned with the solution frame only when the frame jumps (the pin crossing its
+    # clearance, where the field stays in the bushing frame); while it turns with the eccentricity the
+    # field turns with it, and the last pressure as it is is the better start (turning it at every change
+    # cost 13 % more VI iterations on a crossing and 6 x more under a load turning 0.3 rad per solve)
+    TURN_THRESHOLD = 0.5
 
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
@@ -320,6 +356,8 @@ class FilmModel:
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         self._last: Kinematics | None = None
         self.stats = FilmStats()
+        # with the max-gap inlet the solution frame turns with the eccentricity (serial: FrameTurn)
+        self._turn = FrameTurn(self.V) if bearing.inlet == "max-gap" and self.comm.size == 1 else None
 
     # -- setup ----------------------------------------------------------------------------------
     def _build_forms(self) -> None:
@@ -487,6 +525,12 @@ class FilmModel:
 
     def _solve(self, kin: Kinematics, start: float) -> FilmResult:
         beta = self._frame_angle(kin)
+        if self._turn is not None and self._last is not None:
+            # the warm start in the new frame: the last pressure turned with the frame
+            delta = (beta - self._beta + math.pi) % (2 * math.pi) - math.pi
+            if abs(delta) > self.TURN_THRESHOLD:
+                n = self._turn.size
+                self.P.x.array[:n] = self._turn(self.P.x.array[:n], delta)
         rot = _rotation(-beta)
         solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
         self.set_kinematics(solved)

@@ -98,3 +98,27 @@ def test_couette_torques_integrated_with_the_operator(rough):
         reference = QuadratureFunctionals(model.mesh, [model._midpoint_integrands[n] for n in names], 1)()
         assert np.abs(model._operator.integrals - reference).max() <= 1e-12 * np.abs(reference).max()
         assert np.abs(reference).min() > 0
+
+
+def test_warm_start_turned_with_a_jumping_frame_saves_vi_iterations():
+    """Max-gap inlet: the pin crosses its clearance (squeezing along a line past the centre), so the
+    solution frame jumps by ~pi while the pressure stays in the bushing frame. Turning the last
+    pressure with the frame (FrameTurn) must give the same solutions (the VI's solution is unique:
+    1e-9) in fewer VI iterations than starting from the untouched last pressure (measured 116
+    against 127 over the 41 solves, 7 + 3 against 11 + 10 at the jump)."""
+    counts, loads = {}, {}
+    for turn in (True, False):
+        bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="max-gap")
+        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA) as model:
+            if not turn:
+                model._turn = None
+            counts[turn], loads[turn] = 0, []
+            for k in range(41):
+                s, a = 0.6 - 0.03 * k, 0.4
+                result = model.solve(Kinematics((s * C * math.cos(a) + 0.05 * C, s * C * math.sin(a)),
+                                                (-2 * C * OMEGA * math.cos(a), -2 * C * OMEGA * math.sin(a)),
+                                                0.3 * OMEGA, 0.0))
+                counts[turn] += result.iterations
+                loads[turn].append(result.load)
+    np.testing.assert_allclose(loads[True], loads[False], rtol=1e-9)
+    assert counts[True] < counts[False]
