@@ -14,6 +14,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from mpi4py import MPI
+
 from solver import __version__
 from solver.errors import InputError
 
@@ -94,8 +96,6 @@ def setup_logging(rank: int, verbose: bool) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 1 failure, 2 bad input)."""
-    from mpi4py import MPI
-
     world = MPI.COMM_WORLD
     try:
         args = _parser().parse_args(argv)

@@ -40,12 +40,14 @@ import time
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import basix
 import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from dolfinx.la import create_petsc_vector
 from dolfinx.mesh import meshtags
+from scipy.spatial import Delaunay
 from ufl.algorithms import expand_derivatives
 
 from solver.errors import FilmNotConverged, InputError, out_of_range
@@ -248,8 +250,6 @@ class FrameTurn:
     nodes in (theta, z) (periodic in theta). Serial; used for the VI's warm start."""
 
     def __init__(self, V):
-        from scipy.spatial import Delaunay  # only the max-gap inlet needs it
-
         self.size = V.dofmap.index_map.size_local
         x = V.tabulate_dof_coordinates()[: self.size]
         self.theta = np.arctan2(x[:, 1], x[:, 0]) % (2 * math.pi)
@@ -751,8 +751,6 @@ class QuadratureFunctionals:
     """
 
     def __init__(self, mesh, integrands: list, degree: int, *, contact_only: bool = False):
-        import basix
-
         points, self.weights = basix.make_quadrature(basix.CellType.triangle, degree)
         self.contact_only = contact_only  # evaluated only on the cells that FilmModel._contact_cells gives
         area = abs(ufl.JacobianDeterminant(mesh))

@@ -27,6 +27,7 @@ import itertools
 import logging
 import weakref
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
@@ -177,7 +178,7 @@ class CavitatingSolver:
         self._rtol = float(merged["snes_rtol"])
         bc_values = [bc.g.x.array[bc.dof_indices()[0]] for bc in bcs if hasattr(bc.g, "x")]
         local_zero = all(np.all(v == 0.0) for v in bc_values) and len(bc_values) == len(bcs)
-        self._homogeneous = lower == 0.0 and self.comm.allreduce(local_zero, op=_land_op())
+        self._homogeneous = lower == 0.0 and self.comm.allreduce(local_zero, op=MPI.LAND)
         self._sens_ksp: PETSc.KSP | None = None
         self.iterations = 0
         self.update()
@@ -340,16 +341,5 @@ class CavitatingSolver:
 
 def _max(comm, value: float) -> float:
     """The largest value over the ranks (no message on one rank: mpi4py's allreduce pickles)."""
-    return value if comm.size == 1 else comm.allreduce(value, op=_max_op())
+    return value if comm.size == 1 else comm.allreduce(value, op=MPI.MAX)
 
-
-def _land_op():
-    from mpi4py import MPI
-
-    return MPI.LAND
-
-
-def _max_op():
-    from mpi4py import MPI
-
-    return MPI.MAX

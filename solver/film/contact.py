@@ -23,6 +23,8 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.integrate import quad
+from scipy.interpolate import CubicSpline
 
 from solver.errors import out_of_range
 
@@ -33,8 +35,6 @@ COMMON_FIT = (4.4086e-5, 4.0, 6.804)  # F_5/2 ~ a (b - Hs)^c for Hs < b
 
 def gt_integral(n: float, Hs: float) -> float:
     """F_n(Hs) by adaptive quadrature of its definition (reference values)."""
-    from scipy.integrate import quad
-
     value, _ = quad(lambda s: (s - Hs) ** n * math.exp(-0.5 * s * s), Hs, math.inf, epsabs=0.0, epsrel=1e-12, limit=200)
     return value / math.sqrt(2 * math.pi)
 
@@ -47,8 +47,6 @@ def _table(n: float) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.lru_cache(maxsize=None)
 def _spline(n: float):
-    from scipy.interpolate import CubicSpline
-
     return CubicSpline(*_table(n))
 
 
