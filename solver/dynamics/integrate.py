@@ -409,6 +409,7 @@ class ESDIRK32:
                 self.status = "failed"
                 return f"step size {h:.3g} s below the minimum (Newton failures or error test)"
             stages = [f0]
+            first_stage = None  # the converged first stage, for the guesses of stages 2 and 3
             result = None
             for i in range(1, 4):
                 base = y + h * sum(self.A[i, j] * stages[j] for j in range(i))

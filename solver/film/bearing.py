@@ -65,6 +65,7 @@ def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
 
 log = logging.getLogger(__name__)
 
+
 class _QuietJit(logging.Filter):
     """While a form is compiled: FFCx's INFO records and the C compiler's command lines (logged to
     the root logger by distutils) are dropped; FFCx's "Calling JIT C compiler" becomes one line of
@@ -97,6 +98,7 @@ def _form(expression):
     """dolfinx.fem.form with FFCx's verbosity at INFO: only then does it log "Calling JIT C compiler",
     which _QuietJit turns into one line; call it under _quiet_jit()."""
     return fem.form(expression, form_compiler_params={"verbosity": logging.INFO})
+
 
 INLETS = ("max-gap", "none")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
@@ -249,9 +251,9 @@ class FrameTurn:
     ``new(theta, z) = old(theta + delta, z)``, by linear interpolation on a triangulation of the
     nodes in (theta, z) (periodic in theta). Serial; used for the VI's warm start."""
 
-    def __init__(self, V):
-        self.size = V.dofmap.index_map.size_local
-        x = V.tabulate_dof_coordinates()[: self.size]
+    def __init__(self, x: np.ndarray):
+        """x: the coordinates of the owned dofs (unit cylinder)."""
+        self.size = len(x)
         self.theta = np.arctan2(x[:, 1], x[:, 0]) % (2 * math.pi)
         self.z = x[:, 2]
         two_pi = 2 * math.pi
@@ -357,7 +359,8 @@ class FilmModel:
         self._last: Kinematics | None = None
         self.stats = FilmStats()
         # with the max-gap inlet the solution frame turns with the eccentricity (serial: FrameTurn)
-        self._turn = FrameTurn(self.V) if bearing.inlet == "max-gap" and self.comm.size == 1 else None
+        self._turn = FrameTurn(self._owned_coords) if bearing.inlet == "max-gap" and self.comm.size == 1 else None
+        self._fields = None  # output Functions and the expressions they interpolate (fields_si), built once
 
     # -- setup ----------------------------------------------------------------------------------
     def _build_forms(self) -> None:
@@ -663,22 +666,27 @@ class FilmModel:
 
     # -- fields ---------------------------------------------------------------------------------
     def fields_si(self) -> dict[str, fem.Function]:
-        """Pressure [Pa] and film thickness [m] as Functions on the film mesh (for output)."""
+        """Pressure [Pa], film thickness [m] (and asperity pressure [Pa]) as Functions on the film mesh,
+        for output: the same Functions on every call, holding the current solution."""
         with _quiet_jit():
             return self._fields_si()
 
     def _fields_si(self) -> dict[str, fem.Function]:
-        p = fem.Function(self.V, name="pressure_Pa")
-        p.x.array[:] = self.P.x.array * self.scales.pressure
-        h = fem.Function(self.V, name="film_thickness_m")
-        h.interpolate(fem.Expression(self.geometry.H * self.bearing.clearance, self.V.element.interpolation_points()))
-        fields = {"pressure": p, "film_thickness": h}
-        if self.contact is not None:
-            pc = fem.Function(self.V, name="asperity_pressure_Pa")
-            Hs = self.geometry.H / self.params.S
-            pc.interpolate(fem.Expression(self.contact.pressure(Hs, mod=ufl), self.V.element.interpolation_points()))
-            fields["asperity_pressure"] = pc
-        return fields
+        if self._fields is None:  # Functions and compiled expressions, reused by every call
+            points = self.V.element.interpolation_points()
+            functions = {"pressure": fem.Function(self.V, name="pressure_Pa"),
+                         "film_thickness": fem.Function(self.V, name="film_thickness_m")}
+            expressions = {"film_thickness": fem.Expression(self.geometry.H * self.bearing.clearance, points)}
+            if self.contact is not None:
+                functions["asperity_pressure"] = fem.Function(self.V, name="asperity_pressure_Pa")
+                Hs = self.geometry.H / self.params.S
+                expressions["asperity_pressure"] = fem.Expression(self.contact.pressure(Hs, mod=ufl), points)
+            self._fields = functions, expressions
+        functions, expressions = self._fields
+        functions["pressure"].x.array[:] = self.P.x.array * self.scales.pressure
+        for name, expression in expressions.items():
+            functions[name].interpolate(expression)
+        return functions
 
     def close(self) -> None:
         self.solver.close()

@@ -76,7 +76,7 @@ class FixedPatternLU:
         self.ksp.getPC().setFactorSolverType(_lu_package(solver.comm))
         self.b, self.x = self.K.createVecs()
         self.inactive: PETSc.IS | None = None  # of the current factorisation
-        self.factorisations = 0
+        self.local: np.ndarray | None = None  # its owned entries, in the reduced vectors' order
 
     def factor(self, inactive: PETSc.IS) -> None:
         """Numerically factorise K for this inactive set (owned global indices)."""
@@ -90,8 +90,7 @@ class FixedPatternLU:
         self.ksp.setOperators(K)
         self.ksp.setUp()
         self.inactive = inactive
-        self.local = inactive.getIndices() - start  # the reduced vectors' entries, in order
-        self.factorisations += 1
+        self.local = inactive.getIndices() - start
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """x = K^-1 b (b must vanish on the active set of the factorisation)."""
@@ -181,9 +180,9 @@ class CavitatingSolver:
         self._homogeneous = lower == 0.0 and self.comm.allreduce(local_zero, op=MPI.LAND)
         self._sens_ksp: PETSc.KSP | None = None
         self.iterations = 0
-        self.update()
         self.lu: FixedPatternLU | None = None
-        if fixed_pattern and merged["snes_type"] == "vinewtonrsls":  # it reads the VI's inactive set  # numeric-only refactorisations of one fixed pattern (FixedPatternLU)
+        self.update()
+        if fixed_pattern and merged["snes_type"] == "vinewtonrsls":  # FixedPatternLU reads the VI's inactive set
             self.lu = FixedPatternLU(self)
             pc = self.snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
@@ -209,7 +208,7 @@ class CavitatingSolver:
         atol = 1e-11 if self._homogeneous else max(1e-11 * self.rhs.norm(), 1e-14)
         self.snes.setTolerances(atol=atol, rtol=self._rtol, stol=0.0)
         self._sens_ksp = None
-        if getattr(self, "lu", None) is not None:
+        if self.lu is not None:
             self.lu.inactive = None  # its factorisation belongs to the previous operator
 
     def _residual(self, snes, x, r) -> None:

@@ -99,7 +99,6 @@ class MidpointOperator:
             index = bc.dof_indices()[0]
             self.bc_values[index] = bc.g.x.array[index]
         self.lift = bool(np.any(self.bc_values[bc_dofs] != 0.0))
-        self.values = np.zeros(nnz)
 
     def assemble(self, A: PETSc.Mat, rhs: PETSc.Vec) -> None:
         """A and the source (lifted, with -g on the Dirichlet rows) for the current constants."""

@@ -55,60 +55,44 @@ def _rotation_z(x: np.ndarray, angle: float) -> None:
     x[:, 1] = s * x0 + c * x[:, 1]
 
 
-def write_film_fields(directory: Path, name: str, model, times: list[float] | None = None) -> Path:
-    """Write the film's pressure [Pa] and thickness [m] to ``directory/name.xdmf`` (+ ``.h5``).
+def write_film_fields(directory: Path, name: str, model) -> Path:
+    """Write the film's current fields (FilmSeries.write) as one snapshot ``directory/name.xdmf``.
 
-    The mesh is written in metres in the bushing frame (the solution frame turned back, see
+    The mesh is in metres in the bushing frame (the solution frame turned back, see
     solver.film.bearing). Collective on the model's communicator.
     """
-    from dolfinx.io import XDMFFile  # dolfinx only for the fields: the plots and netCDF do not need it
-
-    directory = Path(directory)
-    comm = model.comm
-    tmp = comm.bcast(tempfile.mkdtemp(prefix=".fields-", dir=directory) if comm.rank == 0 else None, root=0)
-    fields = model.fields_si()
-    x = model.mesh.geometry.x
-    original = x.copy()
+    series = FilmSeries(directory, name, model, frame_angle=getattr(model, "_beta", 0.0))
     try:
-        _rotation_z(x, getattr(model, "_beta", 0.0))
-        x *= model.bearing.radius
-        with XDMFFile(comm, str(Path(tmp) / f"{name}.xdmf"), "w") as xdmf:
-            xdmf.write_mesh(model.mesh)
-            for field in fields.values():
-                xdmf.write_function(field, 0.0)
-    finally:
-        x[:] = original
-    comm.Barrier()
-    if comm.rank == 0:
-        for suffix in (".xdmf", ".h5"):
-            os.replace(Path(tmp) / f"{name}{suffix}", directory / f"{name}{suffix}")
-        shutil.rmtree(tmp, ignore_errors=True)
-    comm.Barrier()
-    return directory / f"{name}.xdmf"
+        series.write(0.0)
+        return series.close()
+    except BaseException:
+        series.abort()
+        raise
 
 
 class FilmSeries:
     """The film fields over the cycle as one ParaView time series: ``directory/name.xdmf`` (+ ``.h5``).
 
-    The mesh is written once, in metres in the bushing frame; every ``write(angle)`` adds the fields
-    of the model's current solution (pressure, film thickness, asperity pressure) at time = crank
-    angle [deg], so that ParaView plays the cycle. With the max-gap inlet the solution frame turns
-    with the eccentricity: the series is then in the solution frame (maximum gap at theta = 0).
+    The mesh is written once, in metres, turned by ``frame_angle`` (the solution frame's angle, to
+    put a snapshot in the bushing frame); every ``write(angle)`` adds the fields of the model's
+    current solution (pressure, film thickness, asperity pressure) at time = crank angle [deg], so
+    that ParaView plays the cycle. With the max-gap inlet the solution frame turns with the
+    eccentricity: a series is then in the solution frame (maximum gap at theta = 0).
     Written in a temporary directory and renamed into place by ``close()``; ``abort()`` leaves
     nothing. Collective on the model's communicator.
     """
 
-    def __init__(self, directory: Path, name: str, model):
+    def __init__(self, directory: Path, name: str, model, frame_angle: float = 0.0):
         from dolfinx.io import XDMFFile  # dolfinx only for the fields: the plots and netCDF do not need it
 
         self.directory, self.name, self.model, self.comm = Path(directory), name, model, model.comm
         self.tmp = Path(self.comm.bcast(tempfile.mkdtemp(prefix=".series-", dir=self.directory)
                                         if self.comm.rank == 0 else None, root=0))
-        self.count = 0
         self.xdmf = XDMFFile(self.comm, str(self.tmp / f"{name}.xdmf"), "w")
         x = model.mesh.geometry.x
         original = x.copy()
         try:
+            _rotation_z(x, frame_angle)
             x *= model.bearing.radius
             self.xdmf.write_mesh(model.mesh)
         finally:
@@ -117,7 +101,6 @@ class FilmSeries:
     def write(self, angle_deg: float) -> None:
         for field in self.model.fields_si().values():
             self.xdmf.write_function(field, float(angle_deg))
-        self.count += 1
 
     def close(self) -> Path:
         self.xdmf.close()
@@ -196,7 +179,6 @@ def plot_pressure_map(path: Path, model, title: str = "") -> None:
     data = gather_pressure(model)
     if data is None:
         return
-
     theta, z, p = data
     # repeat a strip across the seam so that the contours reach 0 and 360 deg
     low, high = theta < 20, theta > 340
@@ -216,7 +198,6 @@ def plot_pressure_map(path: Path, model, title: str = "") -> None:
 
 
 def write_json(path: Path, data: dict) -> None:
-
     with atomic_path(Path(path)) as part:
         part.write_text(json.dumps(data, indent=2) + "\n")
 
@@ -247,7 +228,6 @@ STRIBECK_VARIABLES = {  # name -> (units, long_name)
 
 
 def stribeck_dataset(speeds_rpm, hersey, petroff, data: dict, attrs: dict):
-
     variables = {name: ("speed", data[name], {"units": u, "long_name": ln}) for name, (u, ln) in STRIBECK_VARIABLES.items()}
     variables["hersey_number"] = ("speed", hersey, {"units": "1", "long_name": "Hersey number eta N / P (N in rev/s)"})
     variables["petroff_friction_coefficient"] = ("speed", petroff, {"units": "1", "long_name": "Petroff's law"})
@@ -256,7 +236,6 @@ def stribeck_dataset(speeds_rpm, hersey, petroff, data: dict, attrs: dict):
 
 
 def plot_stribeck(ds, path: Path) -> None:
-
     fig, ax = subplots(figsize=(7, 4.5), constrained_layout=True)
     ax.loglog(ds.hersey_number, ds.friction_coefficient, "o-", label="finite-element mixed lubrication")
     ax.loglog(ds.hersey_number, ds.petroff_friction_coefficient, "--", color="gray", label="Petroff")

@@ -219,7 +219,6 @@ def is_complete(path: Path) -> bool:
 
 def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle)."""
-
     angle = ds.crank_angle.values
     c = float(ds.attrs["small_end.clearance_um"]) * 1e-6
     paths = []
