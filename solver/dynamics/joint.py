@@ -59,6 +59,9 @@ class FilmJoint(ClearanceJoint):
     CACHE_SIZE = 512
 
     def __init__(self, model):
+        from solver.film.bearing import Kinematics  # dolfinx: a FilmJoint has a film model, so it is loaded
+
+        self._kinematics = Kinematics  # (imported once here, not on every force evaluation)
         self.model = model
         self._key: tuple | None = None
         self._result = None
@@ -74,8 +77,6 @@ class FilmJoint(ClearanceJoint):
         return self._cache.get(key)
 
     def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
-        from solver.film.bearing import Kinematics  # dolfinx: a FilmJoint has a film model, so it is loaded
-
         key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
         if not all(math.isfinite(v) for v in key):
             return _NAN_FORCES
@@ -89,7 +90,7 @@ class FilmJoint(ClearanceJoint):
             return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
         try:
             if key != self._key:
-                self._result = self.model.solve(Kinematics(key[:2], key[2:4], key[4], 0.0))
+                self._result = self.model.solve(self._kinematics(key[:2], key[2:4], key[4], 0.0))
                 self._key = key
                 self.n_solves += 1
                 self._cache[key] = self._result
@@ -245,14 +246,13 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         return None, None
     if joint == "short-bearing":
         return ShortBearingJoint(radius=se.pin_radius, width=se.width, clearance=se.clearance,
-                                        viscosity=oil.viscosity), None
+                                 viscosity=oil.viscosity), None
     if joint == "dry":
         stiffness = hertz_line_stiffness(se.pin_radius, se.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing,
-                                                surf.nu_bushing)
+                                         surf.nu_bushing)
         return DryContactJoint(radius=se.pin_radius, clearance=se.clearance, stiffness=stiffness,
-                                      restitution=surf.restitution, friction=surf.asperity_friction,
-                                      impact_speed=surf.impact_speed,
-                                      slip_regularisation=solver.slip_regularisation), None
+                               restitution=surf.restitution, friction=surf.asperity_friction,
+                               impact_speed=surf.impact_speed, slip_regularisation=solver.slip_regularisation), None
     if joint != "mixed-fem":
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # dolfinx, PETSc and gmsh come with the film model: imported only when a finite-element joint is built
