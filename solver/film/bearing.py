@@ -53,6 +53,7 @@ from ufl.algorithms import expand_derivatives
 from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
+from solver.film.ehd import ElasticFilm, ModalCompliance, WinklerLayer, deformation_peak
 from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MidpointOperator
@@ -193,6 +194,8 @@ class FilmResult:
     iterations: int  # Newton (VI) iterations
     solve_time: float  # s, wall time of the solve (assembly + VI)
     sigma: float = 0.0  # m, composite roughness (0: smooth)
+    max_deformation: float = 0.0  # m, the bushing's largest radial deformation (signed, + opens the gap; 0: rigid)
+    max_deformation_theta: float = 0.0  # rad, its bushing angle
 
     @property
     def load(self) -> float:
@@ -289,6 +292,8 @@ class FilmModel:
         options: PETSc options over solver.film.cavitation.DEFAULT_OPTIONS.
         half: solve the half z >= 0 of the film (it is symmetric about the mid-plane); False meshes
             the whole width (same results to the discretisation error, twice the unknowns).
+        elastic: the bushing's compliance (solver.film.ehd.WinklerLayer or ModalCompliance); None:
+            rigid. Serial, P1; pressure and deformation are then solved together (solver.film.ehd).
     """
 
     # rad: the warm start is turned with the solution frame only when the frame jumps (the pin crossing its
@@ -299,14 +304,21 @@ class FilmModel:
 
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
-                 options: dict | None = None, half: bool = True):
+                 options: dict | None = None, half: bool = True, elastic=None):
         with _quiet_jit():
             self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-                        half)
+                        half, elastic)
 
     def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-               half) -> None:
+               half, elastic) -> None:
         self.bearing = bearing
+        self.elastic = elastic
+        if elastic is not None:
+            if comm.size != 1 or degree != 1:
+                raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
+            if isinstance(elastic, ModalCompliance) and bearing.inlet == "max-gap":
+                raise InputError("elastic = 'fe' cannot be combined with inlet = 'max-gap' (it turns the film "
+                                 "against the eye; allowed: 'none' or 'hole')")
         self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
                                  omega_ref=omega_ref)
         if degree not in (1, 2):
@@ -329,9 +341,10 @@ class FilmModel:
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
         self.P = fem.Function(self.V, name="pressure")
+        self.W = fem.Function(self.V, name="deformation") if elastic is not None else None  # w / c
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
-        self.geometry = film.FilmGeometry(self.mesh, self.params)
+        self.geometry = film.FilmGeometry(self.mesh, self.params, deformation=self.W)
         self.roughness, self.contact = roughness, contact
         self.slip_regularisation = slip_regularisation
         self._build_forms()
@@ -356,6 +369,7 @@ class FilmModel:
             self.solver.update()
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
+        self._ehd = self._elastic_film(options) if elastic is not None else None
         self._last: Kinematics | None = None
         self.stats = FilmStats()
         # with the max-gap inlet the solution frame turns with the eccentricity (serial: FrameTurn)
@@ -363,6 +377,29 @@ class FilmModel:
         self._fields = None  # output Functions and the expressions they interpolate (fields_si), built once
 
     # -- setup ----------------------------------------------------------------------------------
+    def _elastic_film(self, options) -> ElasticFilm:
+        """The coupled VI of pressure and deformation on this film's operator (solver.film.ehd)."""
+        g, R = self.geometry, self.bearing.radius
+        k_theta, k_z, f = film.reynolds_coefficients(g, self.roughness)
+        P_c = ufl.as_ufl(0.0)
+        if self.contact is not None:
+            P_c = self.contact.pressure(g.H / self.params.S, mod=ufl) / self.scales.pressure
+        # expanded here: FFCx lowers dW/dtheta = grad(W).t inside its variable before it applies
+        # derivatives, and the derivative with respect to the lowered variable comes out zero
+        derivatives = [expand_derivatives(e) for e in (
+            ufl.diff(k_theta, g.W), ufl.diff(k_z, g.W), ufl.diff(f, g.W), ufl.diff(f, g.dW_dtheta), P_c,
+            ufl.diff(P_c, g.W))]
+        coords = self._owned_coords
+        areas = self._operator.T_f @ np.ones(len(self._operator.cells))
+        shapes = self.elastic.shapes(np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, areas, self.scales)
+        n = len(coords)
+        ehd = ElasticFilm(self._operator, self.P, self.W, self.solver.lower.x.array[:n].copy(), derivatives, shapes,
+                          self._operator.bc_dofs, options)
+        ehd.bind(self.solver.A, self.solver.rhs)
+        # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
+        self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
+        return ehd
+
     def _build_forms(self) -> None:
         g, P, s = self.geometry, self.P, self.scales
         v, dP = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
@@ -431,6 +468,7 @@ class FilmModel:
         dr_integrands = [(ufl.diff(residual, var), dx) for var in variables]
         explicit: dict[tuple[int, int, str], tuple[object, str]] = {}
         gradients: list[tuple[int, object, object]] = []
+        w_gradients: list[tuple[int, object, object]] = []
         for i, row in enumerate(_JACOBIAN_ROWS):
             for group, (measure, _) in groups.items():
                 members = [(name, e, scale) for name, (e, scale, r, gr) in self._outputs.items()
@@ -444,10 +482,15 @@ class FilmModel:
                 gradient = ufl.derivative(combined, P, v)
                 if not _is_zero(gradient):  # dE/dP != 0: the pressure part of the viscous torques
                     gradients.append((i, gradient, measure))
+                if self.W is not None:  # dE/dW: outputs that depend on the film thickness
+                    gradient_W = ufl.derivative(combined, self.W, v)
+                    if not _is_zero(gradient_W):
+                        w_gradients.append((i, gradient_W, measure))
         # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
         self._n_inputs = len(variables)
         self._gradient_rows = [i for i, _, _ in gradients]
-        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients])
+        self._w_gradient_rows = [i for i, _, _ in w_gradients]
+        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients])
         self._explicit = _functionals_by_group(self.mesh, explicit, groups)
         # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
         self._edge_indicator = fem.Function(self.V)
@@ -534,11 +577,16 @@ class FilmModel:
             if abs(delta) > self.TURN_THRESHOLD:
                 n = self._turn.size
                 self.P.x.array[:n] = self._turn(self.P.x.array[:n], delta)
+                if isinstance(self.elastic, WinklerLayer):  # its unknowns are the nodal deformation
+                    self._ehd.q = self._turn(self._ehd.q, delta)
         rot = _rotation(-beta)
         solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
         self.set_kinematics(solved)
-        self.solver.update()
-        iterations = self.solver.solve()
+        if self._ehd is not None:
+            iterations = self._ehd.solve()
+        else:
+            self.solver.update()
+            iterations = self.solver.solve()
         self._last, self._beta = kin, beta
         self._in_contact = self._contact_cells()  # for the functionals and the Jacobian of this state
         values = self._functionals()
@@ -549,6 +597,12 @@ class FilmModel:
         hydro = back @ np.array([values["hydro_x"], values["hydro_y"]])
         asperity = back @ np.array([values.get("asperity_x", 0.0), values.get("asperity_y", 0.0)])
         h_min = self.bearing.clearance - math.hypot(*kin.ecc)
+        deformation = (0.0, 0.0)
+        if self._ehd is not None:
+            h_min = self._elastic_h_min()
+            n = len(self._owned_coords)
+            w, theta_w = deformation_peak(self.W.x.array[:n], self._owned_coords, self.bearing.clearance)
+            deformation = (w, (theta_w + beta) % (2 * math.pi))
         contact_area = asperity_normal = asperity_p_max = 0.0
         if self.contact is not None:
             asperity_normal = values["asperity_normal"] * s.force
@@ -562,7 +616,25 @@ class FilmModel:
             asperity_torque_journal=values.get("asperity_torque_journal", 0.0),
             asperity_normal_force=asperity_normal, contact_area_ratio=contact_area, asperity_p_max=asperity_p_max,
             side_flow=-self._assemble(self._side_flow_form) * s.flow,
-            iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma)
+            iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
+            max_deformation=deformation[0], max_deformation_theta=deformation[1])
+
+    def _elastic_h_min(self) -> float:
+        """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
+        minimum gap (mid-plane, along the eccentricity) plus the deformation of the nearest node there
+        (so that a very stiff bushing gives the rigid c - |e| exactly)."""
+        coords, n = self._owned_coords, len(self._owned_coords)
+        eps = np.array([float(self.params.eps_x.value), float(self.params.eps_y.value)])
+        W = self.W.x.array[:n]
+        H = 1.0 - coords[:, :2] @ eps + W
+        at_nodes = float(np.min(H))
+        if not np.any(eps):
+            return at_nodes * self.bearing.clearance
+        angle = math.atan2(eps[1], eps[0])
+        mid = self._midplane
+        nearest = mid[np.argmin(np.abs(np.angle(np.exp(1j * (np.arctan2(coords[mid, 1], coords[mid, 0]) - angle)))))]
+        at_gap = 1.0 - math.hypot(*eps) + W[nearest]
+        return min(at_nodes, at_gap) * self.bearing.clearance
 
     def _contact_cells(self) -> np.ndarray:
         """Owned cells where the asperity pressure can be non-zero at a quadrature point.
@@ -575,6 +647,8 @@ class FilmModel:
             return np.zeros(0, dtype=np.int32)
         eps_x, eps_y = float(self.params.eps_x.value), float(self.params.eps_y.value)
         H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin  # (cells, 3)
+        if self.W is not None:  # the deformation at the vertices (P1: the cells' dofs)
+            H = H + self.W.x.array[self._operator.dofs]
         limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
         return self._owned_cells[H.min(axis=1) < limit]
 
@@ -624,10 +698,22 @@ class FilmModel:
 
     def _jacobian(self) -> FilmJacobian:
         vectors = self._jacobian_vectors()
-        dr, gradients = vectors[: self._n_inputs], vectors[self._n_inputs :]
+        n_in, n_grad = self._n_inputs, len(self._gradient_rows)
+        dr, gradients, w_gradients = vectors[:n_in], vectors[n_in : n_in + n_grad], vectors[n_in + n_grad :]
         for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
-        dP = self.solver.sensitivities(dr)
+        if self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
+            names = list(self.geometry.variables())
+            d = self._ehd.sensitivities(self._ehd.residual_derivatives([v.getArray().copy() for v in dr], names))
+            n = self._ehd.n
+            dP = []
+            for d_k in d:
+                vec = dr[0].duplicate()
+                vec.setArray(d_k[:n])
+                dP.append(vec)
+            dW = [self._ehd.Phi @ d_k[n:] for d_k in d]
+        else:
+            dP = self.solver.sensitivities(dr)
         s = self.scales
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
         J = np.zeros((4, self._n_inputs))
@@ -640,6 +726,9 @@ class FilmModel:
                     J[i] += scale * np.array([self._force_vectors[name].dot(d) for d in dP])
         for i, gradient in zip(self._gradient_rows, gradients):
             J[i] += np.array([gradient.dot(d) for d in dP])
+        for i, gradient in zip(self._w_gradient_rows, w_gradients):  # through the deformation
+            values = gradient.getArray(readonly=True)
+            J[i] += np.array([values @ d for d in dW])
         for vec in dP:
             vec.destroy()
         # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.
@@ -676,6 +765,8 @@ class FilmModel:
             points = self.V.element.interpolation_points()
             functions = {"pressure": fem.Function(self.V, name="pressure_Pa"),
                          "film_thickness": fem.Function(self.V, name="film_thickness_m")}
+            if self.W is not None:
+                functions["deformation"] = fem.Function(self.V, name="deformation_m")
             expressions = {"film_thickness": fem.Expression(self.geometry.H * self.bearing.clearance, points)}
             if self.contact is not None:
                 functions["asperity_pressure"] = fem.Function(self.V, name="asperity_pressure_Pa")
@@ -684,11 +775,15 @@ class FilmModel:
             self._fields = functions, expressions
         functions, expressions = self._fields
         functions["pressure"].x.array[:] = self.P.x.array * self.scales.pressure
+        if self.W is not None:
+            functions["deformation"].x.array[:] = self.W.x.array * self.bearing.clearance
         for name, expression in expressions.items():
             functions[name].interpolate(expression)
         return functions
 
     def close(self) -> None:
+        if self._ehd is not None:
+            self._ehd.close()
         self.solver.close()
         self._jacobian_vectors.close()
         for vec in self._force_vectors.values():

@@ -77,6 +77,9 @@ class FixedPatternLU:
         self.b, self.x = self.K.createVecs()
         self.inactive: PETSc.IS | None = None  # of the current factorisation
         self.local: np.ndarray | None = None  # its owned entries, in the reduced vectors' order
+        #: optional damping of the Newton step: ``limit(step) -> factor in (0, 1]`` on the full step
+        #: (the coupled elastic film limits the change of the film thickness, solver.film.ehd)
+        self.limit = None
 
     def factor(self, inactive: PETSc.IS) -> None:
         """Numerically factorise K for this inactive set (owned global indices)."""
@@ -109,7 +112,9 @@ class FixedPatternLU:
         b[self.local] = x.getArray(readonly=True)
         self.b.setArray(b)
         self.ksp.solve(self.b, self.x)
-        y.setArray(self.x.getArray(readonly=True)[self.local])
+        step = self.x.getArray(readonly=True)
+        factor = 1.0 if self.limit is None else self.limit(step)
+        y.setArray(factor * step[self.local])
         if self.ksp.getConvergedReason() < 0:  # a failed factorisation: a NaN step makes SNES diverge
             y.set(float("nan"))
 

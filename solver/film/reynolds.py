@@ -83,10 +83,12 @@ class FilmGeometry:
     """UFL expressions of the film on the unit-cylinder mesh (theta, thickness, tangent, normal).
 
     The eccentricity and its rate are wrapped in ``ufl.variable`` so that derivatives of any form
-    with respect to them (for the film's Jacobian) come from ``ufl.diff``.
+    with respect to them (for the film's Jacobian) come from ``ufl.diff``. With ``deformation`` (a
+    Function W = w / c, the bushing's radial deformation, positive opening the gap) the thickness is
+    ``H = H_rigid + W`` (DESIGN 7); its rate in the squeeze term is the caller's (quasi-static here).
     """
 
-    def __init__(self, mesh, params: FilmParameters):
+    def __init__(self, mesh, params: FilmParameters, deformation=None):
         x = ufl.SpatialCoordinate(mesh)
         r = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
         self.cos, self.sin = x[0] / r, x[1] / r  # exact on the circle through each point
@@ -101,6 +103,15 @@ class FilmGeometry:
         self.H = 1.0 - self.eps_x * self.cos - self.eps_y * self.sin
         self.dH_dtheta = self.eps_x * self.sin - self.eps_y * self.cos
         self.dH_dT = -self.deps_x * self.cos - self.deps_y * self.sin
+        self.W = self.dW_dtheta = None
+        if deformation is not None:
+            # elastic bushing (DESIGN 7): H = H_rigid + W with W = w / c the radial deformation (a
+            # Function); W and its circumferential slope are variables so that the film's coupled
+            # Jacobian takes their derivatives with ufl.diff (solver.film.ehd)
+            self.W = ufl.variable(deformation)
+            self.dW_dtheta = ufl.variable(ufl.dot(ufl.grad(deformation), self.tangent))
+            self.H = self.H + self.W
+            self.dH_dtheta = self.dH_dtheta + self.dW_dtheta
 
     def variables(self) -> dict[str, Any]:
         """The UFL variables the film's Jacobian is taken with respect to."""

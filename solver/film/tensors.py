@@ -84,6 +84,11 @@ class MidpointOperator:
                                            shape=(n_dofs, n_cells))
         self.expression = fem.Expression(ufl.as_vector(list(coefficients) + list(integrals)), MIDPOINT)
         self.weight = weight  # |K|: the midpoint rule's weight of each cell
+        # per cell: its dofs, the local matrices per unit coefficient and the basis functions'
+        # circumferential slopes (the elastic film's Jacobian, solver.film.ehd, differentiates A P + l
+        # with respect to the coefficients)
+        self.dofs, self.local_theta, self.local_z, self.g_theta = dofs, local_theta, local_z, g_theta
+        self.centroid_angle = np.arctan2(centroid[:, 1], centroid[:, 0])
         self.integrals = np.zeros(len(integrals))
         self.cells = cells
         # Dirichlet dofs: their rows and columns are zeroed and their diagonal set to 1 (dolfinx's way)
@@ -115,3 +120,4 @@ class MidpointOperator:
         A.setValuesCSR(self.indptr, self.indices, values)
         A.assemble()
         rhs.setArray(source)
+        self.coefficients, self.values, self.source = k, values, source  # of this state, for solver.film.ehd

@@ -1,0 +1,373 @@
+"""Elastic bushing coupled to the film (EHD, DESIGN 7): one SNES VI on the pressure and the deformation.
+
+The bushing surface deforms radially by w (positive: the gap opens) under the film and asperity
+pressures, and the film sees ``H = H_rigid + W`` with ``W = w / c`` (solver.film.reynolds.FilmGeometry).
+The deformation is reduced to m unknowns q (dimensionless, / c)::
+
+    W = Phi q,     q = g * (Phi^T F),     F_i = a_i P_i + F_c,i(H)
+
+with F the nodal forces of the film pressure (lumped areas a_i) and of the asperity pressure P_c(H)
+(midpoint rule), Phi (n x m) the deformation shapes at the film's dofs and g their gains:
+
+* ``ModalCompliance``: the finite-element compliance of the eye and its bushing
+  (solver.film.compliance), Phi = T Psi with Psi its m dominant eigenvectors on the compliance's load
+  grid and T the interpolation from that grid to the film's nodes, g = lambda p_ref R^2 / c; so
+  ``w = T Psi Lambda Psi^T T^T F``, symmetric (Maxwell-Betti).
+* ``WinklerLayer``: a thin elastic layer on a rigid housing, ``w = k (p + p_c)`` node by node with
+  ``k = t (1 + nu)(1 - 2 nu) / (E (1 - nu))``: Phi = I, g_i = k p_ref / (c a_i).
+
+Pressure and deformation are solved together by one SNES VI (``vinewtonrsls``, P >= P_cav, q free) on::
+
+    R_P(P, q) = A(H) P + l(H) = 0          the rigid film's Reynolds residual, H from q
+    R_q(P, q) = q - g * Phi^T F(P, H) = 0
+
+with its exact Jacobian::
+
+    dR_P/dP = A(H)
+    dR_P/dq = sum over cells K of [d(A_K P_K + l_K)/dH_K dH_K/dq + dl_K/dW'_K dW'_K/dq]   (W' = dW/dtheta)
+    dR_q/dP = -g Phi^T diag(a)
+    dR_q/dq = I - g Phi^T (dF_c/dH) Phi
+
+where the coefficients and their derivatives (``ufl.diff`` with respect to W and W') come from the
+same UFL expressions as the rigid film, evaluated at the cell midpoints: the operator's rule
+(solver.film.tensors). A relaxed fixed-point loop between film and structure converges badly at
+engine loads (DESIGN 7); Newton on the coupled system does not. The matrix keeps one sparsity
+pattern (with dense borders for the modes), so ``FixedPatternLU`` refactorises it numerically only,
+and the film's Jacobian with respect to the kinematics reuses the converged factorisation.
+
+Serial, P1 (the tensors' assumptions). The deformation is quasi-static: its rate is not in the
+squeeze term.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import weakref
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse
+import ufl
+from dolfinx import fem
+
+from solver.errors import FilmNotConverged, out_of_range
+from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU
+from solver.film.scaling import FilmScales
+from solver.film.tensors import MIDPOINT, MidpointOperator
+
+_instance_counter = itertools.count()
+
+#: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS).
+#: The semismooth method: the reduced-space one (the rigid film's) projects the pressure onto its
+#: bound after each step, which leaves the deformation step computed for the unprojected pressure;
+#: on the coupled problem it then cycles (a mixed-lubrication state at h_min = 0.5 um: no
+#: convergence in 100 iterations, against 35 from a cold start with this one).
+ELASTIC_OPTIONS: dict[str, str | float | int] = {"snes_type": "vinewtonssls", "snes_max_it": 200}
+
+
+@dataclasses.dataclass(frozen=True)
+class WinklerLayer:
+    """A thin elastic layer (the bushing) on a rigid housing: w = k p node by node (DESIGN 7)."""
+
+    thickness: float  # m
+    E: float  # Pa
+    nu: float
+
+    def __post_init__(self) -> None:
+        if not self.thickness > 0:
+            raise out_of_range("bushing thickness", self.thickness, "> 0 m")
+        if not self.E > 0:
+            raise out_of_range("bushing modulus", self.E, "> 0 Pa")
+        if not 0 <= self.nu < 0.5:
+            raise out_of_range("bushing Poisson ratio", self.nu, "[0, 0.5)")
+
+    @property
+    def coefficient(self) -> float:
+        """k = t (1 + nu)(1 - 2 nu) / (E (1 - nu)) [m/Pa]: laterally constrained compression of the layer."""
+        nu = self.nu
+        return self.thickness * (1 + nu) * (1 - 2 * nu) / (self.E * (1 - nu))
+
+    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
+        """(Phi, g) at the film's nodes (theta [rad], z [m], lumped areas / R^2)."""
+        gains = self.coefficient * scales.pressure / scales.clearance / areas
+        return scipy.sparse.identity(len(theta), format="csr"), gains
+
+
+class ModalCompliance:
+    """The finite-element compliance of the eye (solver.film.compliance) reduced to its m dominant modes."""
+
+    def __init__(self, compliance, modes: int):
+        if not 1 <= modes <= len(compliance.areas):
+            raise out_of_range("compliance modes", modes, f"[1, {len(compliance.areas)}]")
+        self.compliance, self.modes = compliance, modes
+
+    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
+        T = self.compliance.interpolation(theta, z)
+        Psi, lam = self.compliance.modes(self.modes)
+        Phi = scipy.sparse.csr_matrix(T @ Psi)
+        return Phi, lam * scales.pressure * scales.radius**2 / scales.clearance
+
+
+class ElasticFilm:
+    """The coupled VI of pressure and deformation (module docstring) on a FilmModel's operator.
+
+    Args:
+        operator: the film's MidpointOperator (fills A(H) and l(H) for the current W).
+        P: the pressure Function; W: the deformation Function W = w / c in the film's forms.
+        lower: the pressure's lower bounds per dof (P_cav, or the Dirichlet value where lower).
+        derivatives: UFL expressions (dk_theta/dW, dk_z/dW, df/dW, df/dW', P_c, dP_c/dW).
+        shapes: (Phi, g) at the film's dofs.
+        bc_dofs: Dirichlet dofs of the pressure.
+        options: PETSc options over solver.film.cavitation.DEFAULT_OPTIONS.
+    """
+
+    def __init__(self, operator: MidpointOperator, P: fem.Function, W: fem.Function, lower: np.ndarray,
+                 derivatives, shapes, bc_dofs: np.ndarray, options: dict | None = None):
+        self.op, self.P, self.W = operator, P, W
+        self.comm = MPI.COMM_SELF
+        self.expression = fem.Expression(ufl.as_vector(list(derivatives)), MIDPOINT)
+        Phi, gains = shapes
+        self.Phi, self.gains = scipy.sparse.csr_matrix(Phi), np.asarray(gains, float)
+        op = operator
+        n, m = len(lower), self.Phi.shape[1]
+        self.n, self.m = n, m
+        cells = op.cells
+        c3 = np.repeat(cells, 3)
+        self.areas = op.T_f @ np.ones(len(cells))  # lumped nodal areas a_i (/ R^2)
+        average = scipy.sparse.csr_matrix((np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())),
+                                          shape=(len(cells), n))  # midpoint value of a P1 field
+        slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
+        self.average_Phi = (average @ self.Phi).tocsr()  # dW_K/dq
+        self.slope_Phi = (slope @ self.Phi).tocsr()  # dW'_K/dq
+        self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
+        self.bc_dofs = bc_dofs
+        self.interior = np.ones(n)
+        self.interior[bc_dofs] = 0.0
+        self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
+        self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
+        # one sparsity pattern for every Jacobian: the union of the blocks' structures
+        ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
+        A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
+        absolute = lambda M: abs(M).tocsr()  # noqa: E731
+        Pq = ones @ (absolute(self.average_Phi) + absolute(self.slope_Phi))
+        qq = absolute(self.gPhiT) @ ones @ absolute(self.average_Phi) + scipy.sparse.identity(m)
+        pattern = scipy.sparse.bmat([[A_pattern, Pq], [absolute(self.J_qP), qq]], format="csr")
+        pattern.sum_duplicates()
+        pattern.sort_indices()
+        self.N = n + m
+        self.indptr, self.indices = pattern.indptr.astype(PETSc.IntType), pattern.indices.astype(PETSc.IntType)
+        self.keys = np.repeat(np.arange(self.N, dtype=np.int64), np.diff(self.indptr)) * self.N + self.indices
+        self.A = PETSc.Mat().createAIJ((self.N, self.N), csr=(self.indptr, self.indices, np.zeros(len(self.indices))),
+                                       comm=self.comm)
+        self.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        self.x, self.r = self.A.createVecs()
+        self.lower_vec, self.upper_vec = self.A.createVecs()
+        self.lower_vec.setArray(np.concatenate([lower, np.full(m, PETSc.NINFINITY)]))
+        self.upper_vec.set(PETSc.INFINITY)
+        self.lower = lower
+        self.prefix = f"ehd{next(_instance_counter)}_"
+        self.snes = PETSc.SNES().create(self.comm)
+        self.snes.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        merged = {**DEFAULT_OPTIONS, **ELASTIC_OPTIONS, **(options or {})}
+        for key, value in merged.items():
+            opts[self.prefix + key] = value
+        self.snes.setFromOptions()
+        for key in merged:
+            opts.delValue(self.prefix + key)
+        self._rtol = float(merged["snes_rtol"])
+        self.snes.setFunction(self._residual, self.r)
+        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setVariableBounds(self.lower_vec, self.upper_vec)
+        self.snes.setForceIteration(True)
+        self.lu = FixedPatternLU(self)  # the sensitivities' factorisation (active set frozen)
+        self.damped = _DampedLU(self)  # the semismooth Newton's: LU of the full matrix, limited step
+        pc = self.snes.getKSP().getPC()
+        pc.setType(PETSc.PC.Type.PYTHON)
+        pc.setPythonContext(self.damped)
+        self.q = np.zeros(m)
+        self._state: np.ndarray | None = None  # the x of the cached evaluation
+        self.iterations = 0
+
+    # -- the coupled residual and Jacobian ---------------------------------------------------------
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        """Residual at x = (P, q); caches the operator and coefficient derivatives of this state."""
+        n = self.n
+        P, q = x[:n], x[n:]
+        self.P.x.array[:n] = P
+        self.W.x.array[:] = self.Phi @ q
+        op = self.op
+        op.assemble(self._A_P, self._l_P)
+        self.k = self.expression.eval(op.cells)  # (cell, 6) at the midpoints
+        R_P = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n)) @ P + op.source
+        F = self.areas * P + self.to_nodes @ self.k[:, 4]
+        R_q = q - self.gains * (self.Phi.T @ F)
+        self._state = x.copy()
+        return np.concatenate([R_P, R_q])
+
+    def _residual(self, snes, x, r) -> None:
+        r.setArray(self.residual(x.getArray(readonly=True)))
+
+    def _jacobian(self, snes, x, J, Pmat) -> None:
+        xa = x.getArray(readonly=True)
+        if self._state is None or not np.array_equal(xa, self._state):
+            self.residual(xa)
+        J.setValuesCSR(self.indptr, self.indices, self._scatter(self.jacobian_matrix()))
+        J.assemble()
+
+    def jacobian_matrix(self) -> scipy.sparse.csr_matrix:
+        """The coupled Jacobian at the cached state (scipy, for the scatter and for tests)."""
+        op, k, n = self.op, self.k, self.n
+        P = self.P.x.array[:n].copy()
+        P[op.bc_dofs] = op.bc_values[op.bc_dofs]  # the residual's lifting uses the Dirichlet values
+        P_cells = P[op.dofs]  # (cell, 3)
+        local = (k[:, 0, None] * np.einsum("cij,cj->ci", op.local_theta, P_cells)
+                 + k[:, 1, None] * np.einsum("cij,cj->ci", op.local_z, P_cells)
+                 + (k[:, 2] * op.weight / 3.0)[:, None])  # d(A_K P_K + l_K)/dH_K at each vertex
+        n_cells = len(op.cells)
+        rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
+        dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
+        dslope = scipy.sparse.csr_matrix((np.repeat(k[:, 3] * op.weight / 3.0, 3), (rows, cols)), shape=(n, n_cells))
+        J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)
+        J_PP = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))
+        contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
+        J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
+        return scipy.sparse.bmat([[J_PP, J_Pq], [self.J_qP, J_qq]], format="csr")
+
+    def _scatter(self, J: scipy.sparse.csr_matrix) -> np.ndarray:
+        """J's values in the fixed pattern (zeros where J has no entry)."""
+        J.sum_duplicates()
+        coo = J.tocoo()
+        position = np.searchsorted(self.keys, coo.row.astype(np.int64) * self.N + coo.col)
+        values = np.zeros(len(self.indices))
+        values[position] = coo.data
+        return values
+
+    #: the largest change of the film thickness per Newton step (W = w / c): from a far start (a cold
+    #: one, or a warm one after a large change of load) the full step overshoots the deformation by
+    #: many clearances and the iteration diverges; limited, it follows the film into the solution
+    MAX_THICKNESS_STEP = 0.2
+
+    def _limit(self, step: np.ndarray) -> float:
+        largest = float(np.max(np.abs(self.Phi @ step[self.n :]), initial=0.0))
+        return min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
+
+    # -- solve ----------------------------------------------------------------------------------
+    def bind(self, A: PETSc.Mat, l: PETSc.Vec) -> None:
+        """The PETSc matrix and vector the operator fills (the rigid solver's, unused otherwise)."""
+        self._A_P, self._l_P = A, l
+
+    def solve(self) -> int:
+        """Solve the coupled VI from the last (P, q); returns the Newton iterations."""
+        n = self.n
+        P0 = self.P.x.array[:n].copy()
+        for dof, value in zip(self.op.bc_dofs, self.op.bc_values[self.op.bc_dofs]):
+            P0[dof] = value  # Dirichlet values exactly
+        x0 = np.concatenate([P0, self.q])
+        r0 = self.residual(x0)
+        scale = max(np.linalg.norm(self.op.source), np.linalg.norm(r0[n:]), 1e-3)
+        self.snes.setTolerances(atol=max(1e-11 * scale, 1e-14), rtol=self._rtol, stol=0.0)
+        self.lu.inactive = None
+        self.x.setArray(x0)
+        self.snes.solve(None, self.x)
+        reason = self.snes.getConvergedReason()
+        self.iterations = self.snes.getIterationNumber()
+        x = self.x.getArray(readonly=True).copy()
+        if reason <= 0 or not np.all(np.isfinite(x)):
+            self.residual(x0)  # back to the last good state
+            raise FilmNotConverged("elastic film solve did not converge", reason, self.iterations)
+        if not np.array_equal(x, self._state):
+            self.residual(x)
+        self.q = x[n:].copy()
+        violation = float(np.max(self.lower - x[:n], initial=0.0))
+        if violation > 1e-8 * max(1.0, float(np.max(np.abs(x[:n]), initial=0.0))):
+            raise FilmNotConverged(f"elastic film solve violated the cavitation bound by {violation:.3g}", reason,
+                                   self.iterations)
+        return self.iterations
+
+    # -- sensitivities --------------------------------------------------------------------------
+    def inactive_set(self) -> PETSc.IS:
+        """The pressurised pressure dofs and every deformation unknown, at the last solution."""
+        x = self._state
+        r = self.residual(x) if x is not None else None
+        n = self.n
+        scale = max(1.0, float(np.max(np.abs(r[:n]), initial=0.0)))
+        active = (x[:n] <= self.lower + 1e-12 * max(1.0, float(np.max(np.abs(x[:n]))))) & (r[:n] > 1e-10 * scale)
+        keep = np.concatenate([~active, np.ones(self.m, dtype=bool)])
+        return PETSc.IS().createGeneral(np.flatnonzero(keep).astype(PETSc.IntType), comm=self.comm)
+
+    def residual_derivatives(self, dr_P: list[np.ndarray], variables: list[str]) -> list[np.ndarray]:
+        """dR/dtheta = (dR_P/dtheta, dR_q/dtheta) at fixed (P, q); dR_q/deps from the asperity forces."""
+        out = []
+        angle = self.op.centroid_angle
+        for d, name in zip(dr_P, variables):
+            d_q = np.zeros(self.m)
+            if name in ("eps_x", "eps_y"):  # H_K = ... - eps_x cos - eps_y sin at the midpoints
+                dH = -np.cos(angle) if name == "eps_x" else -np.sin(angle)
+                d_q = -self.gains * (self.Phi.T @ (self.to_nodes @ (self.k[:, 5] * dH)))
+            out.append(np.concatenate([d, d_q]))
+        return out
+
+    def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
+        """d(P, q)/dtheta = -J_II^-1 dR/dtheta on the inactive set (active set frozen), 0 elsewhere.
+
+        One factorisation per solution: the Jacobian is reassembled first (the semismooth method
+        leaves its own modified matrix in A)."""
+        if self.lu.inactive is None:
+            inactive = self.inactive_set()
+            self._jacobian(None, self.x, self.A, self.A)
+            self.lu.factor(inactive)
+        out = []
+        keep = self.lu.local
+        for d in dr:
+            values = np.zeros(self.N)
+            values[keep] = -d[keep]
+            self.lu.b.setArray(values)
+            self.lu.solve_full(self.lu.b, self.lu.x)
+            out.append(self.lu.x.getArray(readonly=True).copy())
+        return out
+
+    def close(self) -> None:
+        self.lu.destroy()
+        self.damped.destroy()
+        for obj in (self.snes, self.A, self.x, self.r, self.lower_vec, self.upper_vec):
+            obj.destroy()
+
+
+def deformation_peak(W: np.ndarray, coords: np.ndarray, clearance: float) -> tuple[float, float]:
+    """(largest |w| [m], its bushing angle [rad]) over the film's nodes; w keeps its sign."""
+    if not len(W):
+        return 0.0, 0.0
+    i = int(np.argmax(np.abs(W)))
+    return float(W[i] * clearance), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi)
+
+
+class _DampedLU:
+    """Python PC of the coupled VI: an LU of the semismooth Newton matrix (its pattern is fixed, so
+    PETSc refactorises it numerically only) and the step scaled by ``ElasticFilm._limit``."""
+
+    def __init__(self, film: ElasticFilm):
+        self.film = weakref.proxy(film)  # the PC is owned by the film's SNES: no reference cycle through C
+        self.ksp = PETSc.KSP().create(film.comm)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        self.ksp.getPC().setFactorSolverType("petsc")
+
+    def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
+        A, _ = pc.getOperators()
+        self.ksp.setOperators(A)
+        self.ksp.setUp()
+
+    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        self.ksp.solve(x, y)
+        if self.ksp.getConvergedReason() < 0:
+            y.set(float("nan"))
+            return
+        y.scale(self.film._limit(y.getArray(readonly=True)))
+
+    def destroy(self, pc=None) -> None:
+        self.ksp.destroy()
