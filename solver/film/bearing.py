@@ -294,6 +294,9 @@ class FilmModel:
             the whole width (same results to the discretisation error, twice the unknowns).
         elastic: the bushing's compliance (solver.film.ehd.WinklerLayer or ModalCompliance); None:
             rigid. Serial, P1; pressure and deformation are then solved together (solver.film.ehd).
+        piezoviscosity: the oil's pressure-viscosity law (solver.film.viscosity.Barus or Roelands);
+            None: iso-viscous. The film is then solved for the reduced pressure (``P`` holds it) and
+            ``pressure`` holds the true pressure / p_ref.
     """
 
     # rad: the warm start is turned with the solution frame only when the frame jumps (the pin crossing its
@@ -304,15 +307,16 @@ class FilmModel:
 
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
-                 options: dict | None = None, half: bool = True, elastic=None):
+                 options: dict | None = None, half: bool = True, elastic=None, piezoviscosity=None):
         with _quiet_jit():
             self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-                        half, elastic)
+                        half, elastic, piezoviscosity)
 
     def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-               half, elastic) -> None:
+               half, elastic, piezoviscosity) -> None:
         self.bearing = bearing
         self.elastic = elastic
+        self.piezo = piezoviscosity
         if elastic is not None:
             if comm.size != 1 or degree != 1:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
@@ -341,6 +345,8 @@ class FilmModel:
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
         self.P = fem.Function(self.V, name="pressure")
+        # the true pressure / p_ref: the reduced pressure mapped node by node (solver.film.viscosity)
+        self.pressure = fem.Function(self.V, name="true_pressure") if piezoviscosity is not None else self.P
         self.W = fem.Function(self.V, name="deformation") if elastic is not None else None  # w / c
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
@@ -356,7 +362,8 @@ class FilmModel:
         self._cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
         self.bcs = self._boundary_conditions()
         self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
-                                       lower=bearing.cavitation_pressure / self.scales.pressure, options=options)
+                                       lower=self._reduced(bearing.cavitation_pressure) / self.scales.pressure,
+                                       options=options)
         self._operator = None
         if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
             coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
@@ -393,8 +400,14 @@ class FilmModel:
         areas = self._operator.T_f @ np.ones(len(self._operator.cells))
         shapes = self.elastic.shapes(np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, areas, self.scales)
         n = len(coords)
+        pressure_map = None
+        if self.piezo is not None:
+            def pressure_map(Q: np.ndarray):
+                p = self._true_pressure(Q)
+                return p, self.piezo.ratio(p * self.scales.pressure)
         ehd = ElasticFilm(self._operator, self.P, self.W, self.solver.lower.x.array[:n].copy(), derivatives, shapes,
-                          self._operator.bc_dofs, options)
+                          self._operator.bc_dofs, options, pressure_map=pressure_map,
+                          q_limit=None if self.piezo is None else self.piezo.q_limit / self.scales.pressure)
         ehd.bind(self.solver.A, self.solver.rhs)
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
@@ -402,6 +415,9 @@ class FilmModel:
 
     def _build_forms(self) -> None:
         g, P, s = self.geometry, self.P, self.scales
+        # outputs use the true pressure (the film's unknown P is the reduced one with piezoviscosity)
+        # and the Couette stresses mu(p) / mu0 (solver.film.viscosity)
+        p = self.pressure
         v, dP = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         # The coefficients (H^3, flow factors, sqrt in theta) would make UFL pick a very high
         # quadrature degree; they are smooth on an element, so degree 2k - 1 (the midpoint rule for
@@ -420,11 +436,14 @@ class FilmModel:
         residual = film.reynolds_integrand(P, v, g, self.roughness)
         self._a = _form(ufl.derivative(residual * dx, P, dP))
         self._l = _form(ufl.replace(residual, {P: ufl.zero()}) * dx)
-        couette_j, couette_b, pressure_part = film.shear_traction_integrands(P, g, self.roughness)
+        couette_j, couette_b, pressure_part = film.shear_traction_integrands(p, g, self.roughness)
+        if self.piezo is not None:
+            ratio = self.piezo.ratio(s.pressure * p, mod=ufl)
+            couette_j, couette_b = ratio * couette_j, ratio * couette_b
         # functional name -> (dimensionless integrand, SI scale, Jacobian row it adds to, group)
         self._outputs = {
-            "hydro_x": (-P * g.normal[0], whole * s.force, "force_x", "moment"),
-            "hydro_y": (-P * g.normal[1], whole * s.force, "force_y", "moment"),
+            "hydro_x": (-p * g.normal[0], whole * s.force, "force_x", "moment"),
+            "hydro_y": (-p * g.normal[1], whole * s.force, "force_y", "moment"),
             "viscous_couette_journal": (couette_j, whole * s.shear_torque, "torque_journal", "film"),
             "viscous_couette_bushing": (couette_b, whole * s.shear_torque, "torque_bushing", "film"),
             "viscous_pressure_journal": (pressure_part, whole * s.shear_torque, "torque_journal", "moment"),
@@ -451,7 +470,7 @@ class FilmModel:
         self._force_vectors = {}
         for name in ("hydro_x", "hydro_y"):
             integrand, _, _, group = self._outputs[name]
-            vec = fem_petsc.assemble_vector(_form(ufl.derivative(integrand * groups[group][0], P, v)))
+            vec = fem_petsc.assemble_vector(_form(ufl.derivative(integrand * groups[group][0], p, v)))
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self._force_vectors[name] = vec
         # All other functionals of a solve in one pass over the cells per group.
@@ -461,7 +480,7 @@ class FilmModel:
         # the midpoint-rule functionals independent of P (the Couette torques): the tensor operator
         # can integrate them in its own evaluation of the coefficients (see _setup)
         self._midpoint_integrands = {name: e for name, (e, group) in scalars.items() if group == "film"
-                                     and _is_zero(ufl.derivative(e, P, v))}
+                                     and _is_zero(ufl.derivative(e, p, v))}
         variables = list(g.variables().values())
         # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
         # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
@@ -479,8 +498,8 @@ class FilmModel:
                 for j, var in enumerate(variables):
                     if not _is_zero(ufl.diff(combined, var)):
                         explicit[(i, j, group)] = (ufl.diff(combined, var), group)
-                gradient = ufl.derivative(combined, P, v)
-                if not _is_zero(gradient):  # dE/dP != 0: the pressure part of the viscous torques
+                gradient = ufl.derivative(combined, p, v)
+                if not _is_zero(gradient):  # dE/dp != 0: the pressure part of the viscous torques
                     gradients.append((i, gradient, measure))
                 if self.W is not None:  # dE/dW: outputs that depend on the film thickness
                     gradient_W = ufl.derivative(combined, self.W, v)
@@ -515,10 +534,22 @@ class FilmModel:
             bcs.append(fem.dirichletbc(ambient, seam))
         if self.bearing.supply_hole_angle is not None:
             supply = fem.Function(self.V)
-            supply.x.array[:] = self.bearing.supply_pressure / self.scales.pressure
+            supply.x.array[:] = self._reduced(self.bearing.supply_pressure) / self.scales.pressure
             cells = self.cell_tags.find(TAGS["supply"])
             bcs.append(fem.dirichletbc(supply, fem.locate_dofs_topological(self.V, 2, cells)))
         return bcs
+
+    def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
+        """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
+        return self.piezo.pressure(Q * self.scales.pressure) / self.scales.pressure
+
+    def _pressure_slope(self) -> np.ndarray:
+        """dp/dq = mu(p) / mu0 at the nodes of the last solution."""
+        return self.piezo.ratio(self.pressure.x.array * self.scales.pressure)
+
+    def _reduced(self, p: float) -> float:
+        """The film's unknown for a pressure p [Pa]: p, or the reduced pressure with piezoviscosity."""
+        return p if self.piezo is None else float(self.piezo.reduced(p))
 
     @property
     def dofs(self) -> int:
@@ -587,6 +618,12 @@ class FilmModel:
         else:
             self.solver.update()
             iterations = self.solver.solve()
+        if self.piezo is not None:
+            p = self._true_pressure(self.P.x.array)
+            if not np.all(np.isfinite(p)):
+                raise FilmNotConverged("piezoviscous film: unbounded pressure (the reduced pressure reached its "
+                                       "limit); at this load the film needs an elastic bushing", 0, iterations)
+            self.pressure.x.array[:] = p
         self._last, self._beta = kin, beta
         self._in_contact = self._contact_cells()  # for the functionals and the Jacobian of this state
         values = self._functionals()
@@ -662,7 +699,7 @@ class FilmModel:
 
     def _functionals(self) -> dict[str, float]:
         """SI values of every functional, and of the Jacobian rows (in the solution frame)."""
-        raw = {k: vec.dot(self.P.vector) for k, vec in self._force_vectors.items()}
+        raw = {k: vec.dot(self.pressure.vector) for k, vec in self._force_vectors.items()}
         if self._operator is not None:  # integrated with the operator's coefficients, at this state
             raw.update(zip(self._operator_integral_names, self._operator.integrals))
         for names, functionals in self._scalars:
@@ -677,7 +714,7 @@ class FilmModel:
         """(P_max, theta, Z) over the dofs, reduced over ranks."""
         coords = self._owned_coords
         n_owned = len(coords)
-        values = self.P.x.array[:n_owned]
+        values = self.pressure.x.array[:n_owned]
         if n_owned:
             i = int(np.argmax(values))
             local = (float(values[i]), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi), float(coords[i, 2]))
@@ -714,6 +751,10 @@ class FilmModel:
             dW = [self._ehd.Phi @ d_k[n:] for d_k in d]
         else:
             dP = self.solver.sensitivities(dr)
+        if self.piezo is not None:  # of the true pressure: dp = (mu(p) / mu0) dq node by node
+            slope = self._pressure_slope()
+            for vec in dP:
+                vec.getArray()[:] *= slope[: len(vec.getArray())]
         s = self.scales
         # In the solution frame, SI outputs per dimensionless input (eps, deps, U_mean, U_half_diff).
         J = np.zeros((4, self._n_inputs))
@@ -774,7 +815,7 @@ class FilmModel:
                 expressions["asperity_pressure"] = fem.Expression(self.contact.pressure(Hs, mod=ufl), points)
             self._fields = functions, expressions
         functions, expressions = self._fields
-        functions["pressure"].x.array[:] = self.P.x.array * self.scales.pressure
+        functions["pressure"].x.array[:] = self.pressure.x.array * self.scales.pressure
         if self.W is not None:
             functions["deformation"].x.array[:] = self.W.x.array * self.bearing.clearance
         for name, expression in expressions.items():

@@ -123,11 +123,16 @@ class ElasticFilm:
         shapes: (Phi, g) at the film's dofs.
         bc_dofs: Dirichlet dofs of the pressure.
         options: PETSc options over solver.film.cavitation.DEFAULT_OPTIONS.
+        pressure_map: with piezoviscosity P is the reduced pressure: ``pressure_map(P) -> (p, dp/dP)``
+            gives the true pressure that loads the bushing (solver.film.viscosity); q_limit: the
+            reduced pressure's bound (the Newton steps stay below it).
     """
 
     def __init__(self, operator: MidpointOperator, P: fem.Function, W: fem.Function, lower: np.ndarray,
-                 derivatives, shapes, bc_dofs: np.ndarray, options: dict | None = None):
+                 derivatives, shapes, bc_dofs: np.ndarray, options: dict | None = None, pressure_map=None,
+                 q_limit: float | None = None):
         self.op, self.P, self.W = operator, P, W
+        self.pressure_map, self.q_limit = pressure_map, q_limit
         self.comm = MPI.COMM_SELF
         self.expression = fem.Expression(ufl.as_vector(list(derivatives)), MIDPOINT)
         Phi, gains = shapes
@@ -204,7 +209,8 @@ class ElasticFilm:
         op.assemble(self._A_P, self._l_P)
         self.k = self.expression.eval(op.cells)  # (cell, 6) at the midpoints
         R_P = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n)) @ P + op.source
-        F = self.areas * P + self.to_nodes @ self.k[:, 4]
+        p, self.slope = (P, None) if self.pressure_map is None else self.pressure_map(P)
+        F = self.areas * p + self.to_nodes @ self.k[:, 4]
         R_q = q - self.gains * (self.Phi.T @ F)
         self._state = x.copy()
         return np.concatenate([R_P, R_q])
@@ -236,7 +242,8 @@ class ElasticFilm:
         J_PP = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))
         contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
         J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
-        return scipy.sparse.bmat([[J_PP, J_Pq], [self.J_qP, J_qq]], format="csr")
+        J_qP = self.J_qP if self.slope is None else self.J_qP @ scipy.sparse.diags(self.slope)
+        return scipy.sparse.bmat([[J_PP, J_Pq], [J_qP, J_qq]], format="csr")
 
     def _scatter(self, J: scipy.sparse.csr_matrix) -> np.ndarray:
         """J's values in the fixed pattern (zeros where J has no entry)."""
@@ -253,8 +260,17 @@ class ElasticFilm:
     MAX_THICKNESS_STEP = 0.2
 
     def _limit(self, step: np.ndarray) -> float:
+        """The factor of the Newton step x - step: at most MAX_THICKNESS_STEP of film thickness, and
+        with piezoviscosity at most half the way from the reduced pressure to its bound."""
         largest = float(np.max(np.abs(self.Phi @ step[self.n :]), initial=0.0))
-        return min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
+        factor = min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
+        if self.q_limit is not None:
+            rise = -step[: self.n]
+            room = self.q_limit - self._state[: self.n]
+            up = rise > 0
+            if np.any(up):
+                factor = min(factor, float(np.min(0.5 * room[up] / rise[up])))
+        return factor
 
     # -- solve ----------------------------------------------------------------------------------
     def bind(self, A: PETSc.Mat, l: PETSc.Vec) -> None:
