@@ -186,8 +186,29 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("small_end", "width_mm", "width", 20.0, 1e-3, 0.0, unit="mm", doc="bushing width B"),
     _f("small_end", "clearance_um", "clearance", 10.0, 1e-6, 0.0, unit="um",
        doc="radial clearance c; < pin radius"),
+    FieldSpec("small_end", "elastic", "elastic", str, "none", choices=("none", "winkler", "fe"),
+              doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
+                  "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
+                  "eye and bushing, cached on disk); quasi-static (its rate is not in the squeeze term)"),
+    _f("small_end", "bushing_thickness_mm", "bushing_thickness", 1.5, 1e-3, 0.0, unit="mm",
+       doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)"),
+    _f("small_end", "eye_outer_radius_mm", "eye_outer_radius", 17.0, 1e-3, 0.0, unit="mm",
+       doc="outer radius of the rod's eye; > pin radius + bushing thickness"),
+    _f("small_end", "E_eye_GPa", "E_eye", 210.0, 1e9, 0.0, unit="GPa", doc="Young's modulus of the rod (eye)"),
+    _f("small_end", "nu_eye", "nu_eye", 0.3, 1.0, 0.0, 0.5, doc="Poisson ratio of the rod (eye)"),
+    _f("small_end", "shank_half_angle_deg", "shank_half_angle", 30.0, DEG, 0.0, 90.0, unit="deg",
+       doc="half angle of the arc where the eye joins the shank (clamped in the fe model; the shank is "
+           "opposite the top of the eye, toward the big end)"),
+    FieldSpec("small_end", "compliance_modes", "compliance_modes", int, 24, minimum=1, maximum=360,
+              doc="fe: modes of the compliance kept (its truncation error is in run.log)"),
     # [oil]
     _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s", doc="dynamic viscosity"),
+    FieldSpec("oil", "piezoviscosity", "piezoviscosity", str, "none", choices=("none", "barus", "roelands"),
+              doc="pressure dependence of the viscosity: none, barus (mu0 exp(alpha p)) or roelands (with the "
+                  "initial slope alpha); in the film and the friction. With a rigid bushing the pressure can "
+                  "become unbounded: use it with small_end.elastic"),
+    _f("oil", "pressure_viscosity_GPa_inv", "pressure_viscosity", 15.0, 1e-9, 0.0, 100.0, unit="1/GPa",
+       doc="pressure-viscosity coefficient alpha (engine oils: 10-20 1/GPa)"),
     _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
        doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
     FieldSpec("oil", "inlet", "inlet", str, "none", choices=("none", "max-gap", "hole"),
@@ -347,9 +368,19 @@ class SmallEnd:
     pin_radius: float = _field("small_end", "pin_radius")  # m
     width: float = _field("small_end", "width")  # m
     clearance: float = _field("small_end", "clearance")  # m, radial
+    elastic: str = "none"
+    bushing_thickness: float = _field("small_end", "bushing_thickness")  # m
+    eye_outer_radius: float = _field("small_end", "eye_outer_radius")  # m
+    E_eye: float = _field("small_end", "E_eye")  # Pa
+    nu_eye: float = _field("small_end", "nu_eye")
+    shank_half_angle: float = _field("small_end", "shank_half_angle")  # rad
+    compliance_modes: int = 24
 
     def __post_init__(self) -> None:
         _check_section(self, "small_end")
+        if self.elastic == "fe" and not self.eye_outer_radius > self.pin_radius + self.bushing_thickness:
+            raise out_of_range("small_end.eye_outer_radius_mm", f"{self.eye_outer_radius * 1e3:g}",
+                               f"> pin radius + bushing thickness = {(self.pin_radius + self.bushing_thickness) * 1e3:g}")
         if not self.clearance < self.pin_radius:
             raise out_of_range(
                 "small_end.clearance_um", f"{self.clearance * 1e6:g}",
@@ -362,6 +393,8 @@ class Oil:
     """Lubricant (SI)."""
 
     viscosity: float = _field("oil", "viscosity")  # Pa s
+    piezoviscosity: str = "none"
+    pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
     inlet: str = "none"
     supply_hole_angle: float = _field("oil", "supply_hole_angle")  # rad, rod frame

@@ -112,10 +112,70 @@ def surface_from_args(args):
         raise InputError(message.replace("asperity_model", "--asperity-model")) from None
 
 
+def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
+    """The bushing's deformation and the oil's piezoviscosity (DESIGN 7; solver.film.ehd, solver.film.viscosity)."""
+    g = parser.add_argument_group("elastic bushing and piezoviscous oil")
+    g.add_argument("--elastic", choices=("none", "winkler", "fe"), default="none",
+                   help="bushing deformation: none (rigid, default), winkler (thin bushing on a rigid housing, "
+                        "needs --bushing-thickness) or fe (finite-element eye and bushing, cached on disk; needs "
+                        "--bushing-thickness, --eye-outer-radius and --inlet none)")
+    g.add_argument("--bushing-thickness", type=_number("--bushing-thickness", 0, allowed="> 0 m"), default=None,
+                   help="bushing wall thickness [m] (moduli: --E-bushing, --nu-bushing)")
+    g.add_argument("--eye-outer-radius", type=_number("--eye-outer-radius", 0, allowed="> radius + bushing thickness"),
+                   default=None, help="outer radius of the housing (the rod's eye) [m]")
+    g.add_argument("--E-housing", type=_number("--E-housing", 0, allowed="> 0 Pa"), default=210e9,
+                   help="Young's modulus of the housing (eye) [Pa] (default 210e9, steel)")
+    g.add_argument("--nu-housing", type=_number("--nu-housing", 0, 0.5, low_open=False, allowed="[0, 0.5)"),
+                   default=0.3, help="Poisson's ratio of the housing (default 0.3)")
+    g.add_argument("--shank-angle", type=_number("--shank-angle", -360, 360, allowed="(-360, 360) deg"),
+                   default=90.0, help="fe: bushing angle of the middle of the clamped arc where the eye joins the "
+                                      "shank (default 90: +y, opposite the load, as a rod in tension)")
+    g.add_argument("--shank-half-angle", type=_number("--shank-half-angle", 0, 90, allowed="(0, 90) deg"),
+                   default=30.0, help="fe: half angle of that arc (default 30 deg)")
+    g.add_argument("--compliance-modes", type=int, default=24, help="fe: modes of the compliance kept (default 24)")
+    g.add_argument("--piezoviscosity", choices=("none", "barus", "roelands"), default="none",
+                   help="pressure dependence of the viscosity (default none)")
+    g.add_argument("--pressure-viscosity", type=_number("--pressure-viscosity", 0, 1e-7, allowed="(0, 1e-7) 1/Pa"),
+                   default=1.5e-8, help="pressure-viscosity coefficient alpha [1/Pa] (default 1.5e-8)")
+
+
+def elastic_from_args(args, comm):
+    """(elastic, piezoviscosity) models of the parsed options (after _check_elastic)."""
+    from solver.film.ehd import bushing_model  # dolfinx: after the arguments are checked
+    from solver.film.viscosity import viscosity_law
+
+    surface = surface_from_args(args)
+    elastic = bushing_model(args.elastic, radius=args.radius, width=args.width, bushing_thickness=args.bushing_thickness,
+                            eye_outer_radius=args.eye_outer_radius, E_eye=args.E_housing, nu_eye=args.nu_housing,
+                            E_bushing=surface.E_bushing, nu_bushing=surface.nu_bushing,
+                            shank_half_angle_deg=args.shank_half_angle, modes=args.compliance_modes, comm=comm,
+                            shank_angle_deg=args.shank_angle)
+    return elastic, viscosity_law(args.piezoviscosity, args.pressure_viscosity, args.viscosity)
+
+
+def _check_elastic(args, comm) -> None:
+    if args.elastic == "none":
+        return
+    if args.bushing_thickness is None:
+        raise InputError(f"--elastic {args.elastic} needs --bushing-thickness (allowed: > 0 m)")
+    if comm.size != 1 or getattr(args, "degree", 1) != 1:
+        raise InputError(f"--elastic {args.elastic} runs on one rank with --degree 1 (allowed: no mpirun, degree 1)")
+    if args.elastic == "fe":
+        if args.eye_outer_radius is None or not args.eye_outer_radius > args.radius + args.bushing_thickness:
+            raise InputError(f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
+                             f"bushing thickness = {args.radius + args.bushing_thickness:g} m)")
+        if args.inlet == "max-gap":
+            raise InputError("--elastic fe with --inlet max-gap: the max-gap frame turns the film against the eye "
+                             "(allowed: --inlet none)")
+        if not 1 <= args.compliance_modes <= 1000:
+            raise InputError(f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [1, 1000])")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The bearing command's arguments."""
     add_geometry_arguments(parser)
     add_surface_arguments(parser)
+    add_elastic_arguments(parser)
     mode = parser.add_mutually_exclusive_group(required=True)
     mode.add_argument("--eccentricity", type=_number("--eccentricity", 0, 1, low_open=False, allowed="[0, 1)"),
                       help="eccentricity ratio e/c")
@@ -155,6 +215,7 @@ def bearing_from_args(args):
 def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     _check(args)
+    _check_elastic(args, comm)
     from solver.film.bearing import (  # dolfinx: after the checks
         FilmModel,
         Kinematics,
@@ -167,9 +228,11 @@ def run(args, comm) -> int:
     rate = args.eccentricity_rate
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
+    elastic, piezoviscosity = elastic_from_args(args, comm)
     model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size,
                       degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
-                      slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3)
+                      slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3, elastic=elastic,
+                      piezoviscosity=piezoviscosity)
     setup_time = time.perf_counter() - start
     c = args.clearance
     load_angle = -math.pi / 2  # the load acts along -y
@@ -214,6 +277,10 @@ def run(args, comm) -> int:
         "asperity_friction_torque_Nm": result.asperity_torque_journal,
         "power_loss_W": abs(result.torque_journal * omega),
         "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
+        # elastic bushing and piezoviscous oil
+        "elastic": args.elastic, "piezoviscosity": args.piezoviscosity,
+        "max_deformation_m": result.max_deformation,
+        "max_deformation_angle_deg": math.degrees(result.max_deformation_theta),
     }
     if residual is not None:
         report["force_residual_N"] = residual
@@ -253,6 +320,8 @@ def _print_table(report: dict, stream) -> None:
                  ("h_min / sigma", report["h_min_over_sigma"], ""),
                  ("real contact area ratio", report["contact_area_ratio"], "")]
     rows += [("friction coefficient", report["friction_coefficient"], ""), ("power loss", report["power_loss_W"], "W")]
+    if report["elastic"] != "none":
+        rows.append(("largest bushing deformation", report["max_deformation_m"] * 1e6, "um"))
     for label, value, unit in rows:
         text = "n/a" if value is None else f"{value:14.6g}"
         print(f"{label:28s} {text:>14s} {unit}", file=stream)

@@ -257,6 +257,8 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # dolfinx, PETSc and gmsh come with the film model: imported only when a finite-element joint is built
     from solver.film.bearing import Bearing, FilmModel
+    from solver.film.ehd import bushing_model
+    from solver.film.viscosity import viscosity_law
 
     if oil.inlet == "hole" and not oil.supply_hole_diameter < min(se.width, se.pin_radius):
         raise InputError(f"oil.supply_hole_diameter_mm = {oil.supply_hole_diameter * 1e3:g} is out of range "
@@ -268,7 +270,13 @@ def joint_from_case(case: Case, engine, comm, joint: str):
                       supply_hole_diameter=oil.supply_hole_diameter if oil.inlet == "hole" else 0.0,
                       inlet="max-gap" if oil.inlet == "max-gap" else "none")
     surface = surface_from_case(surf)
+    elastic = bushing_model(se.elastic, radius=se.pin_radius, width=se.width, bushing_thickness=se.bushing_thickness,
+                            eye_outer_radius=se.eye_outer_radius, E_eye=se.E_eye, nu_eye=se.nu_eye,
+                            E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing,
+                            shank_half_angle_deg=math.degrees(se.shank_half_angle), modes=se.compliance_modes,
+                            comm=comm)
     model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
                       roughness=surface.roughness(), contact=surface.contact(),
-                      slip_regularisation=solver.slip_regularisation)
+                      slip_regularisation=solver.slip_regularisation, elastic=elastic,
+                      piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity))
     return FilmJoint(model), model

@@ -387,3 +387,25 @@ class _DampedLU:
 
     def destroy(self, pc=None) -> None:
         self.ksp.destroy()
+
+
+def bushing_model(kind: str, *, radius: float, width: float, bushing_thickness: float, eye_outer_radius: float,
+                  E_eye: float, nu_eye: float, E_bushing: float, nu_bushing: float, shank_half_angle_deg: float,
+                  modes: int, comm: MPI.Comm, shank_angle_deg: float = 180.0):
+    """The bushing's compliance for ``FilmModel(elastic=...)``: None (rigid), a WinklerLayer, or the
+    finite-element eye (solver.film.compliance, from its disk cache when built before) reduced to
+    ``modes`` modes, clamped around ``shank_angle_deg`` (the engine: 180, the shank opposite the top
+    of the eye in the rod frame)."""
+    if kind == "none":
+        return None
+    if kind == "winkler":
+        return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
+    if kind != "fe":
+        raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
+    from solver.film.compliance import EyeGeometry, eye_compliance  # noqa: PLC0415 - gmsh and the 3D model: only for fe
+
+    geometry = EyeGeometry(bore_radius=radius, width=width, bushing_thickness=bushing_thickness,
+                           eye_outer_radius=eye_outer_radius, E_eye=E_eye, nu_eye=nu_eye, E_bushing=E_bushing,
+                           nu_bushing=nu_bushing, shank_angle_deg=shank_angle_deg,
+                           shank_half_angle_deg=shank_half_angle_deg)
+    return ModalCompliance(eye_compliance(geometry, comm=comm), modes)

@@ -105,3 +105,14 @@ class Roelands:
     def pressure(self, q):
         q = np.asarray(q, float)
         return np.where(q < self.q_limit, self._pressure(np.minimum(q, self.q_limit)), np.inf)
+
+
+def viscosity_law(kind: str, alpha: float, viscosity: float):
+    """``FilmModel(piezoviscosity=...)`` of a case or command: None, Barus or Roelands."""
+    if kind == "none":
+        return None
+    if kind == "barus":
+        return Barus(alpha)
+    if kind == "roelands":
+        return Roelands(alpha, viscosity)
+    raise out_of_range("piezoviscosity", repr(kind), "'none', 'barus' or 'roelands'")

@@ -57,6 +57,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "omega_rel": ("rad s-1", "angular speed of the pin relative to the rod"),
     "h_min_over_sigma": ("1", "minimum film thickness over composite roughness"),
     "contact_area_ratio": ("1", "real asperity contact area over nominal bearing area"),
+    "deformation_max": ("m", "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)"),
+    "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
     "dissipated_power": ("W", "power dissipated in the joint (friction + squeeze)"),
     "input_power": ("W", "power of the crank driver and the gas on the mechanism"),

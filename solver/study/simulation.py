@@ -192,7 +192,7 @@ class _Run:
         nan = math.nan
         values = dict(ecc_x=nan, ecc_y=nan, ecc_rate_x=nan, ecc_rate_y=nan, omega_rel=nan, pin_force_x=nan, pin_force_y=nan, h_min=nan, p_max=nan, F_hydro=nan,
                       F_asperity=nan, friction_torque=nan, friction_power=nan, squeeze_power=nan,
-                      dissipated_power=nan, contact_area_ratio=nan)
+                      dissipated_power=nan, contact_area_ratio=nan, deformation_max=nan, deformation_max_angle=nan)
         if em.small_end is None:
             values["pin_force_x"], values["pin_force_y"] = reactions["small_end"][ROD, :2]
         else:
@@ -213,7 +213,9 @@ class _Run:
             result = self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel) if self.model is not None else None
             if result is not None:
                 values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
-                              contact_area_ratio=result.contact_area_ratio)
+                              contact_area_ratio=result.contact_area_ratio, h_min=result.h_min,
+                              deformation_max=result.max_deformation,
+                              deformation_max_angle=result.max_deformation_theta)
             elif self.joint_name == "short-bearing":
                 values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0)
             elif self.joint_name == "dry":
@@ -317,7 +319,7 @@ def _ideal_cycle_output(ideal) -> CycleOutput:
     }
     for name in ("ecc_x", "ecc_y", "ecc_rate_x", "ecc_rate_y", "omega_rel", "h_min", "p_max", "F_hydro", "F_asperity",
                  "friction_torque", "friction_power", "squeeze_power", "dissipated_power", "contact_area_ratio",
-                 "kinetic_energy", "potential_energy"):
+                 "deformation_max", "deformation_max_angle", "kinetic_energy", "potential_energy"):
         columns[name] = nan.copy()
     return CycleOutput(columns, math.nan)
 
