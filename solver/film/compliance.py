@@ -1,0 +1,670 @@
+"""Compliance of the connecting-rod small-end eye with its bushing (DESIGN 7): the radial displacement
+of the bore surface (the film's outer surface) per unit pressure, from 3D linear elasticity.
+
+The model. The eye is an annular cylinder (steel, radii ``r_i = R + t`` to ``r_o``) with a bonded
+bronze bushing (radii R to R + t) inside; the bore r = R is the film surface and the pin stays rigid.
+Only the half width 0 <= z <= B/2 is modelled, with the symmetry plane z = 0 (``u_z = 0``), because
+the film code solves the half film z >= 0 with a pressure symmetric in z. The eye is clamped
+(``u = 0``) on the arc of its outer surface where it joins the rod shank,
+``|theta - theta_s| <= alpha``, which with the symmetry plane excludes rigid motion. Linear
+elasticity, ``div sigma(u) = 0`` with ``sigma = lambda tr(eps) I + 2 mu eps``, P2 tetrahedra on a
+second-order gmsh mesh (P1 locks in the eye's bending), traction ``-p n`` on the bore (n is the
+outward normal of the solid, so the pressure pushes the bore outward), all other surfaces free.
+
+Angles are the bushing angle theta of the film code, measured from the bushing x axis toward its y
+axis. ``u_r = u . (-n)`` on the bore: positive when the bore opens (the film gap grows).
+
+Load basis. A structured grid of ``n_theta x n_z`` nodes on the bore, ``theta_j = j 2 pi / n_theta``
+(periodic) and ``z_k = k (B/2) / (n_z - 1)`` (both ends included), carries the bilinear hat
+functions ``hat_i(theta, z)`` (periodic in theta; node i = k n_theta + j, z-major). They sum to one,
+so a uniform pressure is represented exactly. With the areas ``a_i = int hat_i dA``, the load vectors
+``b_i(v) = int hat_i (-n . v) dA`` and the stiffness matrix K, the pressure ``p = sum_j p_j hat_j``
+deforms the eye by ``u = K^-1 B p``. Work-consistent generalised forces and displacements::
+
+    f_i = int p hat_i dA   ~=  a_i p_i                     [N]
+    w_i = int u_r hat_i dA / a_i = (B^T u)_i / a_i         [m]
+    w = G f,   G = A^-1 B^T K^-1 B A^-1,   A = diag(a)     [m/N]
+
+G is symmetric positive definite (Maxwell-Betti at the discrete level). K is factorised once (MUMPS
+Cholesky: K is symmetric positive definite) and all ``n_theta n_z`` load cases are back-substituted
+in blocks. The film code passes nodal forces F at its own film nodes: ``f = T^T F`` and the
+displacement at those nodes is ``w = T G T^T F`` with ``T = Compliance.interpolation(theta, z)``.
+
+Reduction. The m dominant eigenpairs of G (``Compliance.modes``), ``G ~ Psi diag(lam) Psi^T``. The
+eye's bending (ovalisation) is captured by a dozen modes, but the bushing's local compression is
+close to a diagonal operator (Winkler: ``w_i ~ k p_i``) and is not low-rank: under the clamp, where
+the eye hardly moves, it is a third of the displacement. For the reference small end, the error
+(max norm) under a uniform pressure and 30 deg pressure bumps is 5 % with 24 modes and falls below
+2 % from 64 modes on; hence ``DEFAULT_MODES`` = 72, with 1.5 % (``Compliance.truncation_error``,
+bench/bench_compliance.py).
+
+Mesh. Element edge ``DEFAULT_ELEMENT_SIZE`` = 0.3 R in the eye, the bushing thickness on the bore
+and in the bushing, a sixth of 0.3 R along the clamp's edges (where the stress is singular). For the
+reference small end: 40k dofs, set-up about 12 s on one core, and displacements under the reference
+loads within 0.5 % of those on a 217k-dof mesh. The bore elements (0.15 R) are coarser than the
+default hat spacing (5 deg = 0.087 R): the hats are the coupling basis of the film, not resolved
+load patterns. gmsh's 3D Delaunay is used because it is deterministic (HXT is not), so a compliance
+built on several ranks uses the same mesh as one built on one.
+
+Scaling. The elasticity problem is solved in lengths X = x / R and stresses divided by E_eye, so
+the stiffness entries are O(h) instead of O(E h) ~ 1e9 N/m: for unit scaled traction the scaled
+displacement U gives ``u = R U p / E_eye``, hence ``G = G_scaled / (R E_eye)`` with ``G_scaled``
+built from the scaled areas and load vectors.
+
+Cache. ``eye_compliance`` stores the result as ``<sha256 key>.npz`` (key of the geometry, the grid,
+the element size, the support and ``FORMAT_VERSION``) in ``$XDG_CACHE_HOME/tribo-solver/compliance``
+(default ``~/.cache/...``); rank 0 writes through a temporary file in the same directory and
+``os.replace`` (atomic). A later call with the same inputs loads the file and builds nothing.
+
+What the caller provides: an ``EyeGeometry`` (SI), the grid sizes and a communicator (the solve is
+distributed over it; every rank receives the whole G). Use ``ElasticEye`` as a context manager:
+PETSc destructors are collective.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import math
+import os
+import tempfile
+import time
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import gmsh
+import numpy as np
+import scipy.sparse
+import ufl
+from dolfinx import fem
+from dolfinx import mesh as dmesh
+from dolfinx.fem import petsc as fem_petsc
+from dolfinx.io import gmshio
+from ufl.core.expr import Expr
+
+from solver.errors import out_of_range
+from solver.film.mesh import _initialize_gmsh
+
+log = logging.getLogger(__name__)
+
+FORMAT_VERSION = 1  # of the cache files; raise it when the discretisation or the file layout changes
+DEFAULT_MODES = 72  # modes of G kept by default: truncation error < 2 % for the reference loads (bench)
+DEFAULT_ELEMENT_SIZE = 0.3  # element edge in the eye / R (see Mesh in the module docstring)
+TAGS = {"bushing": 1, "eye": 2, "bore": 11, "symmetry": 12, "clamp": 13}
+_BLOCK = 60  # right-hand sides per back-substitution (a dense block of dofs x 60 doubles)
+_QUADRATURE_DEGREE = 6  # on the bore: the hats have kinks inside the facets
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class EyeGeometry:
+    """The small-end eye with its bushing (SI units)."""
+
+    bore_radius: float  # m, film surface = bushing inner radius (the pin radius R; clearance negligible)
+    width: float  # m, axial width of eye and bushing (= bearing width B)
+    bushing_thickness: float  # m, bronze bushing wall t; 0: no bushing (the eye bore is the film surface)
+    eye_outer_radius: float  # m, outer radius of the eye r_o > R + t
+    E_eye: float = 210e9  # Pa, rod/eye (steel)
+    nu_eye: float = 0.3
+    E_bushing: float = 115e9  # Pa, bushing (bronze)
+    nu_bushing: float = 0.33
+    shank_angle_deg: float = 180.0  # bushing angle theta_s of the middle of the eye-shank junction
+    shank_half_angle_deg: float = 30.0  # half angle alpha of the clamped arc of the eye's outer surface
+
+    def __post_init__(self) -> None:
+        for name in ("bore_radius", "width", "E_eye", "E_bushing"):
+            if not getattr(self, name) > 0:
+                raise out_of_range(f"eye.{name}", getattr(self, name), "> 0")
+        if not self.bushing_thickness >= 0:
+            raise out_of_range("eye.bushing_thickness", self.bushing_thickness, ">= 0")
+        inner = self.bore_radius + self.bushing_thickness
+        if not self.eye_outer_radius > inner:
+            raise out_of_range("eye.eye_outer_radius", self.eye_outer_radius,
+                               f"> bore radius + bushing thickness = {inner:g}")
+        for name in ("nu_eye", "nu_bushing"):
+            if not 0 <= getattr(self, name) < 0.5:
+                raise out_of_range(f"eye.{name}", getattr(self, name), "[0, 0.5)")
+        if not 0 < self.shank_half_angle_deg < 180:
+            raise out_of_range("eye.shank_half_angle_deg", self.shank_half_angle_deg, "(0, 180)")
+
+    @property
+    def eye_inner_radius(self) -> float:
+        """Radius of the eye-bushing interface R + t [m]."""
+        return self.bore_radius + self.bushing_thickness
+
+
+def winkler_coefficient(thickness: float, E: float, nu: float) -> float:
+    """Compliance of a thin layer bonded to a rigid housing, w = k p [m/Pa] (oedometric compression):
+
+    .. math:: k = t (1 + \\nu)(1 - 2 \\nu) / (E (1 - \\nu))
+    """
+    return thickness * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
+
+
+# ---------------------------------------------------------------------------------------------------
+# The compliance: plain numpy data
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Compliance:
+    """The bore's compliance on the hat grid (see the module docstring for the definitions).
+
+    Attributes:
+        geometry: the eye it belongs to.
+        theta: (n_theta,) grid angles [rad], uniform from 0.
+        z: (n_z,) grid axial positions [m], uniform on [0, B/2].
+        areas: (N,) a_i = int hat_i dA [m^2], N = n_theta n_z, node i = k n_theta + j.
+        matrix: (N, N) G [m/N], w = G f.
+        clamped: False for a model supported at four points instead of the shank clamp (verification).
+    """
+
+    geometry: EyeGeometry
+    theta: np.ndarray
+    z: np.ndarray
+    areas: np.ndarray
+    matrix: np.ndarray
+    clamped: bool = True
+
+    @property
+    def size(self) -> int:
+        """Number of grid nodes N."""
+        return self.theta.size * self.z.size
+
+    def interpolation(self, theta: np.ndarray, z: np.ndarray) -> scipy.sparse.csr_matrix:
+        """The hat values at bore points: T (n_points x N), ``T[p, i] = hat_i(theta_p, z_p)``.
+
+        Nodal forces F [N] at these points make the generalised forces ``f = T^T F``; the
+        displacement there is ``T w = T G f``.
+
+        Args:
+            theta: bushing angles of the points [rad], any range (periodic).
+            z: axial positions of the points [m], in [0, B/2].
+        """
+        theta, z = np.broadcast_arrays(np.asarray(theta, dtype=float), np.asarray(z, dtype=float))
+        theta, z = theta.ravel(), z.ravel()
+        half_width = self.geometry.width / 2
+        if z.size and not (z.min() >= -1e-9 * half_width and z.max() <= (1 + 1e-9) * half_width):
+            raise ValueError(f"z must lie in [0, B/2] = [0, {half_width:g}] m ({z.min():g} .. {z.max():g})")
+        n_theta, n_z = self.theta.size, self.z.size
+        s = np.mod(theta, 2 * math.pi) / (2 * math.pi / n_theta)
+        j0 = np.floor(s).astype(np.int64)
+        s -= j0
+        j0 %= n_theta
+        j1 = (j0 + 1) % n_theta
+        q = np.clip(z / (half_width / (n_z - 1)), 0.0, n_z - 1)
+        k0 = np.minimum(np.floor(q).astype(np.int64), n_z - 2)
+        q -= k0
+        rows = np.repeat(np.arange(theta.size), 4)
+        lower, upper = k0 * n_theta, (k0 + 1) * n_theta
+        cols = np.stack([lower + j0, lower + j1, upper + j0, upper + j1], axis=1)
+        vals = np.stack([(1 - s) * (1 - q), s * (1 - q), (1 - s) * q, s * q], axis=1)
+        return scipy.sparse.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(theta.size, self.size))
+
+    def generalised_forces(self, pressure: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                           refine: int = 8) -> np.ndarray:
+        """f_i = int p hat_i dA [N] for a pressure p(theta [rad], z [m]) [Pa], formed as the film code does.
+
+        Nodal forces F = p dA at the midpoints of a ``refine`` times finer grid, then ``f = T^T F``
+        (the midpoint rule on sub-cells is exact for the bilinear hats times a constant).
+        """
+        R, half_width = self.geometry.bore_radius, self.geometry.width / 2
+        d_theta = 2 * math.pi / (self.theta.size * refine)
+        dz = half_width / ((self.z.size - 1) * refine)
+        theta_q, z_q = np.meshgrid((np.arange(self.theta.size * refine) + 0.5) * d_theta,
+                                   (np.arange((self.z.size - 1) * refine) + 0.5) * dz)
+        F = pressure(theta_q, z_q) * (R * d_theta * dz)
+        return self.interpolation(theta_q, z_q).T @ F.ravel()
+
+    def modes(self, m: int = DEFAULT_MODES) -> tuple[np.ndarray, np.ndarray]:
+        """The m dominant eigenpairs of G: ``(Psi (N x m), lam (m,))``, lam descending, Psi orthonormal,
+        ``G ~ Psi diag(lam) Psi^T``."""
+        if not 1 <= m <= self.size:
+            raise out_of_range("number of compliance modes", m, f"[1, {self.size}]")
+        lam, Psi = np.linalg.eigh(0.5 * (self.matrix + self.matrix.T))
+        return Psi[:, ::-1][:, :m], lam[::-1][:m]
+
+    def truncation_error(self, m: int, loads: np.ndarray) -> np.ndarray | float:
+        """Relative error of the displacement with m modes, ``max|G f - G_m f| / max|G f|``.
+
+        Args:
+            m: number of modes.
+            loads: generalised forces f [N], (N,) or (N, k) for k loads.
+
+        Returns:
+            The error of each load (a float for a single load).
+        """
+        f = np.asarray(loads, dtype=float).reshape(self.size, -1)
+        Psi, lam = self.modes(m)
+        w = self.matrix @ f
+        w_m = Psi @ (lam[:, None] * (Psi.T @ f))
+        error = np.abs(w - w_m).max(axis=0) / np.abs(w).max(axis=0)
+        return error if np.ndim(loads) > 1 else float(error[0])
+
+    def write(self, path: str | Path) -> None:
+        """Write to an .npz file (not atomic: see ``eye_compliance`` for the cache)."""
+        with open(path, "wb") as stream:
+            np.savez(stream, format_version=FORMAT_VERSION,
+                     geometry=json.dumps(dataclasses.asdict(self.geometry)), theta=self.theta, z=self.z,
+                     areas=self.areas, matrix=self.matrix, clamped=self.clamped)
+
+    @classmethod
+    def read(cls, path: str | Path) -> Compliance:
+        """Read a file written by ``write``; ValueError if it is of another format version."""
+        with np.load(path, allow_pickle=False) as data:
+            version = int(data["format_version"])
+            if version != FORMAT_VERSION:
+                raise ValueError(f"{path}: compliance format {version}, expected {FORMAT_VERSION}")
+            geometry = EyeGeometry(**json.loads(str(data["geometry"])))
+            arrays = (data["theta"], data["z"], data["areas"], data["matrix"])
+            return cls(geometry, *arrays, clamped=bool(data["clamped"]))
+
+
+def reference_loads(compliance: Compliance) -> dict[str, np.ndarray]:
+    """Generalised forces of the unit reference pressures used to judge the mode truncation [N]:
+
+    - ``uniform``: p = 1 Pa everywhere;
+    - ``opposite``: a cos^2 bump 30 deg wide (p = cos^2(pi (theta - theta_c) / 30 deg) for
+      |theta - theta_c| < 15 deg) centred opposite the shank, times the film's axial profile
+      ``1 - (2 z / B)^2``: the gas-load peak;
+    - ``side``: the same bump 90 deg from the shank.
+    """
+    theta_s = math.radians(compliance.geometry.shank_angle_deg)
+    half_width = compliance.geometry.width / 2
+
+    def bump(theta_c: float) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+        def pressure(theta, z):
+            d = np.angle(np.exp(1j * (theta - theta_c)))  # wrapped to (-pi, pi]
+            bump = np.where(np.abs(d) < math.radians(15), np.cos(d * 6.0) ** 2, 0.0)  # cos^2(pi d / 30 deg)
+            return bump * (1 - (z / half_width) ** 2)
+
+        return pressure
+
+    return {"uniform": compliance.areas.copy(),
+            "opposite": compliance.generalised_forces(bump(theta_s + math.pi)),
+            "side": compliance.generalised_forces(bump(theta_s + math.pi / 2))}
+
+
+# ---------------------------------------------------------------------------------------------------
+# The finite-element model
+
+
+def _support_angles(geometry: EyeGeometry, clamp: bool) -> list[float]:
+    """Angles where the eye and bushing are split into sectors: the ends of the clamped arc, or (no
+    clamp) the axes, whose bore points at z = 0 then are mesh vertices for the point supports."""
+    if clamp:
+        theta_s, alpha = math.radians(geometry.shank_angle_deg), math.radians(geometry.shank_half_angle_deg)
+        return [theta_s - alpha, theta_s + alpha]
+    return [0.0, math.pi / 2, math.pi, 3 * math.pi / 2]
+
+
+def _build_gmsh_model(geometry: EyeGeometry, element_size: float, bore_element_size: float,
+                      clamp: bool) -> None:
+    """Eye and bushing (lengths / R) as annular sectors, fragmented into one conforming mesh."""
+    occ = gmsh.model.occ
+    R = geometry.bore_radius
+    half_width = geometry.width / 2 / R
+    r_bore, r_interface, r_outer = 1.0, geometry.eye_inner_radius / R, geometry.eye_outer_radius / R
+
+    def sector(r_in: float, r_out: float, start: float, end: float) -> list[tuple[int, int]]:
+        outer = occ.addCylinder(0, 0, 0, 0, 0, half_width, r_out, angle=end - start)
+        inner = occ.addCylinder(0, 0, 0, 0, 0, half_width, r_in, angle=end - start)
+        piece, _ = occ.cut([(3, outer)], [(3, inner)])
+        occ.rotate(piece, 0, 0, 0, 0, 0, 1, start)
+        return piece
+
+    cuts = _support_angles(geometry, clamp)
+    ends = list(zip(cuts, cuts[1:] + [cuts[0] + 2 * math.pi]))
+    bushing = [p for a, b in ends for p in sector(r_bore, r_interface, a, b)] if r_interface > r_bore else []
+    eye = [p for a, b in ends for p in sector(r_interface, r_outer, a, b)]
+    _, pieces = occ.fragment(bushing + eye, [])
+    occ.synchronize()
+    groups = {"bushing": [t for piece in pieces[: len(bushing)] for _, t in piece],
+              "eye": [t for piece in pieces[len(bushing):] for _, t in piece],
+              "bore": [], "symmetry": [], "clamp": []}
+    theta_s, alpha = math.radians(geometry.shank_angle_deg), math.radians(geometry.shank_half_angle_deg)
+    for _, tag in gmsh.model.getEntities(2):  # a cylindrical face lies on the clamped arc or off it
+        if gmsh.model.getBoundingBox(2, tag)[5] < 1e-6:  # (gmsh pads bounding boxes by 1e-7)
+            groups["symmetry"].append(tag)
+        elif gmsh.model.getType(2, tag) == "Cylinder":
+            low, high = gmsh.model.getParametrizationBounds(2, tag)
+            x, y, _ = gmsh.model.getValue(2, tag, [(a + b) / 2 for a, b in zip(low, high)])
+            radius = math.hypot(x, y)
+            on_arc = abs(math.remainder(math.atan2(y, x) - theta_s, math.tau)) < alpha
+            if abs(radius - r_bore) < 1e-6:
+                groups["bore"].append(tag)
+            elif clamp and abs(radius - r_outer) < 1e-6 and on_arc:
+                groups["clamp"].append(tag)
+    for name, tags in groups.items():
+        if tags:
+            dim = 3 if name in ("bushing", "eye") else 2
+            gmsh.model.addPhysicalGroup(dim, tags, TAGS[name])
+            gmsh.model.setPhysicalName(dim, TAGS[name], name)
+    _set_sizes(groups["bushing"] or groups["eye"], element_size, bore_element_size, (r_bore, r_interface),
+               r_outer if clamp else None)
+    gmsh.model.mesh.generate(3)
+    gmsh.model.mesh.setOrder(2)
+
+
+def _set_sizes(inner_volumes: list[int], element_size: float, bore_element_size: float,
+               bore_radii: tuple[float, float], clamp_radius: float | None) -> None:
+    """Element sizes: ``element_size`` in the eye, ``bore_element_size`` on the bore and the bushing
+    (the points of the innermost volumes at the bore radii), and a sixth of the element size at the
+    clamp's edges (the axial lines at the ends of the arc, where the stress is singular), graded
+    back to the element size over one element size."""
+    # set every option the film mesh also sets: gmsh options outlive the model
+    gmsh.option.setNumber("Mesh.CharacteristicLengthMin", 0.0)
+    gmsh.option.setNumber("Mesh.CharacteristicLengthMax", element_size)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay surfaces
+    gmsh.option.setNumber("Mesh.Algorithm3D", 1)  # Delaunay: deterministic (HXT is not: threads)
+    points = gmsh.model.getBoundary([(3, t) for t in inner_volumes], combined=False, recursive=True)
+    bore_points = [(0, t) for d, t in points if d == 0 and _on_radius(t, *bore_radii)]
+    gmsh.model.mesh.setSize(bore_points, bore_element_size)
+    if clamp_radius is None:
+        return
+    edges = [t for _, t in gmsh.model.getEntities(1) if _is_axial_line(t, clamp_radius)]
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "CurvesList", edges)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", distance)
+    field.setNumber(threshold, "SizeMin", element_size / 6)
+    field.setNumber(threshold, "SizeMax", element_size)
+    field.setNumber(threshold, "DistMin", 0.0)
+    field.setNumber(threshold, "DistMax", element_size)
+    field.setAsBackgroundMesh(threshold)
+
+
+def _is_axial_line(curve: int, radius: float) -> bool:
+    """Whether a gmsh curve is a line along z at the given radius (lengths / R)."""
+    x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, curve)
+    return abs(x1 - x0) < 1e-6 and abs(y1 - y0) < 1e-6 and abs(math.hypot(x0, y0) - radius) < 1e-6
+
+
+def _on_radius(point: int, *radii: float) -> bool:
+    """Whether a gmsh point lies on one of the given radii (lengths / R)."""
+    x, y, _ = gmsh.model.getValue(0, point, [])
+    return any(abs(math.hypot(x, y) - r) < 1e-6 for r in radii)
+
+
+def eye_mesh(geometry: EyeGeometry, comm: MPI.Comm, *, element_size: float, bore_element_size: float,
+             clamp: bool = True):
+    """The eye's mesh (lengths / R) on ``comm``: ``(mesh, cell_tags, facet_tags)`` with ``TAGS``.
+
+    gmsh runs on rank 0; dolfinx distributes the mesh over ``comm``.
+    """
+    if comm.rank == 0:
+        _initialize_gmsh()
+        gmsh.model.add("eye")
+        try:
+            _build_gmsh_model(geometry, element_size, bore_element_size, clamp)
+        except Exception:
+            gmsh.model.remove()
+            raise
+    try:
+        return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+    finally:
+        if comm.rank == 0:
+            gmsh.model.remove()
+
+
+class ElasticEye:
+    """The discrete elasticity problem of the eye: mesh, P2 space, factorised stiffness.
+
+    Args:
+        geometry: the eye.
+        comm: the communicator the problem is distributed over.
+        element_size: element edge in the eye [m]; default ``DEFAULT_ELEMENT_SIZE`` R. A sixth of it
+            along the clamp's edges, where the stress is singular.
+        bore_element_size: element edge on the bore and the bushing [m]; default the bushing
+            thickness t (one P2 element across it), bounded to [element_size / 4, element_size].
+        clamp: clamp the shank arc (the model); False supports the eye instead at the four bore
+            points on the axes at z = 0 (u_y = 0 on the x axis, u_x = 0 on the y axis), which removes
+            rigid motion and carries no force under loads symmetric about both axes (verification).
+
+    Attributes:
+        mesh, facet_tags: the mesh (lengths / R) and its facet groups (``TAGS``).
+        V: the P2 displacement space; ``ds_bore``: the bore's measure.
+    """
+
+    def __init__(self, geometry: EyeGeometry, comm: MPI.Comm = MPI.COMM_SELF, *,
+                 element_size: float | None = None, bore_element_size: float | None = None,
+                 clamp: bool = True):
+        self.geometry, self.comm, self.clamp = geometry, comm, clamp
+        R = geometry.bore_radius
+        self.element_size = element_size if element_size is not None else DEFAULT_ELEMENT_SIZE * R
+        if bore_element_size is None:
+            bore_element_size = max(min(self.element_size, geometry.bushing_thickness or self.element_size),
+                                    self.element_size / 4)
+        self.bore_element_size = bore_element_size
+        self.mesh, cell_tags, self.facet_tags = eye_mesh(geometry, comm, element_size=self.element_size / R,
+                                                         bore_element_size=bore_element_size / R, clamp=clamp)
+        self.V = fem.VectorFunctionSpace(self.mesh, ("Lagrange", 2))
+        self.ds_bore = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags,
+                                   metadata={"quadrature_degree": _QUADRATURE_DEGREE})(TAGS["bore"])
+        self.bcs = self._supports(self.facet_tags)
+        self.K = fem_petsc.assemble_matrix(fem.form(self._stiffness(cell_tags)), bcs=self.bcs)
+        self.K.assemble()
+        self.K.setOption(PETSc.Mat.Option.SPD, True)
+        self.ksp = PETSc.KSP().create(comm)
+        self.ksp.setOperators(self.K)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("cholesky")
+        self.ksp.getPC().setFactorSolverType("mumps")
+        self.ksp.setUp()
+
+    @property
+    def num_dofs(self) -> int:
+        """Global number of displacement unknowns."""
+        return self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
+
+    def _stiffness(self, cell_tags) -> ufl.Form:
+        u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
+        dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=cell_tags)
+        g = self.geometry
+
+        def eps(w):
+            return ufl.sym(ufl.grad(w))
+
+        form = 0
+        for name, E, nu in (("eye", g.E_eye, g.nu_eye), ("bushing", g.E_bushing, g.nu_bushing)):
+            E_scaled = E / g.E_eye
+            mu = fem.Constant(self.mesh, E_scaled / (2 * (1 + nu)))
+            lmbda = fem.Constant(self.mesh, E_scaled * nu / ((1 + nu) * (1 - 2 * nu)))
+            sigma = lmbda * ufl.tr(eps(u)) * ufl.Identity(3) + 2 * mu * eps(u)
+            form += ufl.inner(sigma, eps(v)) * dx(TAGS[name])
+        return form
+
+    def _supports(self, facet_tags) -> list:
+        fdim = self.mesh.topology.dim - 1
+        symmetry = fem.locate_dofs_topological(self.V.sub(2), fdim, facet_tags.find(TAGS["symmetry"]))
+        bcs = [fem.dirichletbc(PETSc.ScalarType(0), symmetry, self.V.sub(2))]
+        if self.clamp:
+            clamp = fem.locate_dofs_topological(self.V, fdim, facet_tags.find(TAGS["clamp"]))
+            return bcs + [fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), clamp, self.V)]
+        # the bore points on the axes at z = 0 are mesh vertices (see _support_angles)
+        for component, points in ((1, [(1, 0), (-1, 0)]), (0, [(0, 1), (0, -1)])):
+            def at_points(x, points=points):
+                return np.any([np.hypot(x[0] - a, x[1] - b) + np.abs(x[2]) < 1e-8 for a, b in points], axis=0)
+
+            vertices = dmesh.locate_entities(self.mesh, 0, at_points)
+            dofs = fem.locate_dofs_topological(self.V.sub(component), 0, vertices)
+            bcs.append(fem.dirichletbc(PETSc.ScalarType(0), dofs, self.V.sub(component)))
+        return bcs
+
+    def _assemble_load(self, form: fem.FormMetaClass) -> PETSc.Vec:
+        """An assembled load vector (owned entries summed), zero on the supported dofs."""
+        b = fem_petsc.assemble_vector(form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(b, self.bcs)
+        return b
+
+    def displacement(self, pressure: Callable[[Expr, Expr], Expr]) -> fem.Function:
+        """The displacement [m] under a bore pressure ``pressure(theta, z)`` [Pa], a UFL expression of
+        the bushing angle theta [rad] and the axial position z [m]."""
+        X = ufl.SpatialCoordinate(self.mesh)
+        P = pressure(ufl.atan_2(X[1], X[0]), self.geometry.bore_radius * X[2]) / self.geometry.E_eye
+        n = ufl.FacetNormal(self.mesh)
+        b = self._assemble_load(fem.form(-P * ufl.inner(n, ufl.TestFunction(self.V)) * self.ds_bore))
+        u = fem.Function(self.V, name="displacement")
+        self.ksp.solve(b, u.vector)
+        b.destroy()
+        u.x.scatter_forward()
+        u.x.array[:] *= self.geometry.bore_radius  # the solution is U = u / R
+        return u
+
+    def compliance(self, n_theta: int, n_z: int) -> Compliance:
+        """The compliance on an ``n_theta x n_z`` hat grid (see the module docstring)."""
+        if n_theta < 3:
+            raise out_of_range("compliance grid n_theta", n_theta, ">= 3")
+        if n_z < 2:
+            raise out_of_range("compliance grid n_z", n_z, ">= 2")
+        g = self.geometry
+        R, half_width = g.bore_radius, g.width / 2
+        theta = np.arange(n_theta) * (2 * math.pi / n_theta)
+        z = np.linspace(0.0, half_width, n_z)
+        B, areas = self._hat_loads(theta, z / R)
+        G = self._back_substitute(B) / np.outer(areas, areas)  # scaled: A^-1 B^T K^-1 B A^-1
+        return Compliance(g, theta, z, areas * R**2, G / (R * g.E_eye), self.clamp)
+
+    def _hat_loads(self, theta: np.ndarray, Z: np.ndarray) -> tuple[scipy.sparse.csc_matrix, np.ndarray]:
+        """The load vectors b_i (owned rows; sparse columns) and the areas a_i of the hats (scaled)."""
+        X = ufl.SpatialCoordinate(self.mesh)
+        cos, sin, Z_k = (fem.Constant(self.mesh, 0.0) for _ in range(3))
+        spacing_theta = fem.Constant(self.mesh, theta[1] - theta[0])
+        spacing_Z = fem.Constant(self.mesh, Z[1] - Z[0])
+        d_theta = ufl.atan_2(cos * X[1] - sin * X[0], cos * X[0] + sin * X[1])  # theta - theta_j in (-pi, pi]
+        hat = (ufl.max_value(0.0, 1 - abs(d_theta) / spacing_theta)
+               * ufl.max_value(0.0, 1 - abs(X[2] - Z_k) / spacing_Z))
+        n = ufl.FacetNormal(self.mesh)
+        load = fem.form(-hat * ufl.inner(n, ufl.TestFunction(self.V)) * self.ds_bore)
+        area = fem.form(hat * self.ds_bore)
+        columns, areas = [], []
+        for Z_value in Z:
+            for theta_value in theta:
+                cos.value, sin.value, Z_k.value = math.cos(theta_value), math.sin(theta_value), Z_value
+                b = self._assemble_load(load)
+                columns.append(scipy.sparse.csc_matrix(b.array[:, None]))
+                b.destroy()
+                areas.append(self.comm.allreduce(fem.assemble_scalar(area), op=MPI.SUM))
+        return scipy.sparse.hstack(columns, format="csc"), np.array(areas)
+
+    def _back_substitute(self, B: scipy.sparse.csc_matrix) -> np.ndarray:
+        """B^T K^-1 B, on every rank, solving blocks of ``_BLOCK`` right-hand sides at a time."""
+        factor = self.ksp.getPC().getFactorMatrix()
+        n_local, n_global = self.K.getLocalSize()[0], self.K.getSize()[0]
+        result = np.zeros((B.shape[1], B.shape[1]))
+        for start in range(0, B.shape[1], _BLOCK):
+            block = B[:, start:start + _BLOCK]
+            size = ((n_local, n_global), (PETSc.DECIDE, block.shape[1]))
+            rhs = PETSc.Mat().createDense(size, array=np.asfortranarray(block.toarray()), comm=self.comm)
+            solution = PETSc.Mat().createDense(size, comm=self.comm)
+            solution.setUp()
+            factor.matSolve(rhs, solution)
+            result[:, start:start + block.shape[1]] = B.T @ solution.getDenseArray()
+            rhs.destroy()
+            solution.destroy()
+        return self.comm.allreduce(result, op=MPI.SUM)
+
+    def close(self) -> None:
+        """Destroy the PETSc objects (collective)."""
+        self.ksp.destroy()
+        self.K.destroy()
+
+    def __enter__(self) -> ElasticEye:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+# ---------------------------------------------------------------------------------------------------
+# Cached construction
+
+
+def default_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/tribo-solver/compliance``, or ``~/.cache/tribo-solver/compliance``."""
+    root = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(root) / "tribo-solver" / "compliance"
+
+
+def cache_key(geometry: EyeGeometry, n_theta: int, n_z: int, element_size: float, clamp: bool = True) -> str:
+    """sha256 of everything the compliance depends on (geometry, grid, element size [m], support, format)."""
+    inputs = {"format": FORMAT_VERSION, "geometry": dataclasses.asdict(geometry), "n_theta": n_theta,
+              "n_z": n_z, "element_size": element_size, "clamp": clamp}
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
+
+
+def eye_compliance(geometry: EyeGeometry, *, n_theta: int = 72, n_z: int = 5,
+                   element_size: float | None = None, comm: MPI.Comm = MPI.COMM_SELF,
+                   cache_dir: str | Path | None = None, use_cache: bool = True,
+                   clamp: bool = True) -> Compliance:
+    """The compliance of the eye on an ``n_theta x n_z`` hat grid, from the cache when it is there.
+
+    Args:
+        geometry: the eye (SI).
+        n_theta, n_z: grid nodes around the bore and over the half width (both ends included).
+        element_size: element edge in the eye [m]; default ``DEFAULT_ELEMENT_SIZE`` R (``ElasticEye``).
+        comm: the communicator the solve is distributed over; every rank returns the whole G.
+        cache_dir: where the .npz files live; default ``default_cache_dir()``.
+        use_cache: False neither reads nor writes the cache.
+        clamp: see ``ElasticEye``.
+    """
+    element_size = element_size if element_size is not None else DEFAULT_ELEMENT_SIZE * geometry.bore_radius
+    key = cache_key(geometry, n_theta, n_z, element_size, clamp)
+    path = Path(cache_dir or default_cache_dir()) / f"{key}.npz"
+    if use_cache:
+        cached = comm.bcast(_read_cache(path) if comm.rank == 0 else None, root=0)
+        if cached is not None:
+            log.info("eye compliance loaded from %s", path)
+            return cached
+    start = time.perf_counter()
+    with ElasticEye(geometry, comm, element_size=element_size, clamp=clamp) as eye:
+        compliance = eye.compliance(n_theta, n_z)
+        dofs = eye.num_dofs
+    loads = reference_loads(compliance)
+    m = min(DEFAULT_MODES, compliance.size)
+    errors = compliance.truncation_error(m, np.column_stack(list(loads.values())))
+    log.info("eye compliance: %d dofs, %d load cases, %.1f s; truncation error with %d modes: %s", dofs,
+             compliance.size, time.perf_counter() - start, m,
+             ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)))
+    if use_cache and comm.rank == 0:
+        _write_cache(compliance, path)
+    return compliance
+
+
+def _read_cache(path: Path) -> Compliance | None:
+    """The cached compliance, or None when there is none (or it is unreadable: it is then rebuilt)."""
+    if not path.exists():
+        return None
+    try:
+        return Compliance.read(path)
+    except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
+        log.warning("ignoring unreadable compliance cache %s: %s", path, err)  # rebuilt and replaced
+        return None
+
+
+def _write_cache(compliance: Compliance, path: Path) -> None:
+    """Write atomically (a temporary file in the same directory, then ``os.replace``: readers see the
+    old file or the whole new one); a failure only warns, and removes the temporary file."""
+    temporary = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.stem, suffix=".part",
+                                         delete=False) as file:
+            temporary = Path(file.name)
+        compliance.write(temporary)
+        os.replace(temporary, path)
+    except OSError as err:
+        log.warning("could not write the compliance cache %s: %s", path, err)
+        if temporary is not None:
+            temporary.unlink(missing_ok=True)
+
+
+__all__ = ["DEFAULT_ELEMENT_SIZE", "DEFAULT_MODES", "TAGS", "Compliance", "ElasticEye", "EyeGeometry",
+           "cache_key", "default_cache_dir", "eye_compliance", "eye_mesh", "reference_loads",
+           "winkler_coefficient"]
