@@ -199,7 +199,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("small_end", "shank_half_angle_deg", "shank_half_angle", 30.0, DEG, 0.0, 90.0, unit="deg",
        doc="half angle of the arc where the eye joins the shank (clamped in the fe model; the shank is "
            "opposite the top of the eye, toward the big end)"),
-    FieldSpec("small_end", "compliance_modes", "compliance_modes", int, 24, minimum=1, maximum=360,
+    FieldSpec("small_end", "compliance_modes", "compliance_modes", int, 72, minimum=1, maximum=360,
               doc="fe: modes of the compliance kept (its truncation error is in run.log)"),
     # [oil]
     _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s", doc="dynamic viscosity"),
@@ -374,7 +374,7 @@ class SmallEnd:
     E_eye: float = _field("small_end", "E_eye")  # Pa
     nu_eye: float = _field("small_end", "nu_eye")
     shank_half_angle: float = _field("small_end", "shank_half_angle")  # rad
-    compliance_modes: int = 24
+    compliance_modes: int = 72
 
     def __post_init__(self) -> None:
         _check_section(self, "small_end")

@@ -132,7 +132,7 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
                                       "shank (default 90: +y, opposite the load, as a rod in tension)")
     g.add_argument("--shank-half-angle", type=_number("--shank-half-angle", 0, 90, allowed="(0, 90) deg"),
                    default=30.0, help="fe: half angle of that arc (default 30 deg)")
-    g.add_argument("--compliance-modes", type=int, default=24, help="fe: modes of the compliance kept (default 24)")
+    g.add_argument("--compliance-modes", type=int, default=72, help="fe: modes of the compliance kept (default 72)")
     g.add_argument("--piezoviscosity", choices=("none", "barus", "roelands"), default="none",
                    help="pressure dependence of the viscosity (default none)")
     g.add_argument("--pressure-viscosity", type=_number("--pressure-viscosity", 0, 1e-7, allowed="(0, 1e-7) 1/Pa"),

@@ -54,6 +54,11 @@ class FilmJoint(ClearanceJoint):
     last ``CACHE_SIZE`` states are kept (``result_at``), so that post-processing the integrator's
     output states does not solve the film again. Counters: ``n_solves``, ``n_jacobians``,
     ``n_failures``.
+
+    With an elastic bushing the film also depends on time, through the deformation's rate (implicit
+    Euler from the last committed state): the time and the commit count are part of a state's key, and
+    ``commit(t)`` after an accepted output state makes its deformation the start of the next rate (a
+    rejected step never commits, so it cannot corrupt the history).
     """
 
     CACHE_SIZE = 512
@@ -67,20 +72,35 @@ class FilmJoint(ClearanceJoint):
         self._result = None
         self.last_result = None
         self._cache: dict[tuple, object] = {}
+        self._elastic = model.deformation_state() is not None
+        self._commits = 0
+        self._deformations: dict[tuple, object] = {}  # key -> elastic unknowns of that solve
+        self._last_key: tuple | None = None
         self.n_solves = self.n_jacobians = self.n_failures = 0
 
-    def result_at(self, ecc, ecc_rate, omega_rel):
-        """The FilmResult at a state (from the cache, or a new solve); None if the solve fails."""
+    def _state_key(self, ecc, ecc_rate, omega_rel, t) -> tuple:
         key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
+        return key + (float(t), self._commits) if self._elastic else key
+
+    def commit(self, t: float) -> None:
+        """Elastic bushing: the deformation of the last evaluated state, at time t, starts the next rate."""
+        if self._elastic and self._last_key in self._deformations:
+            self.model.commit_deformation(self._deformations[self._last_key], t)
+            self._commits += 1
+
+    def result_at(self, ecc, ecc_rate, omega_rel, t: float = 0.0):
+        """The FilmResult at a state (from the cache, or a new solve); None if the solve fails."""
+        key = self._state_key(ecc, ecc_rate, omega_rel, t)
         if key not in self._cache:
-            self.forces(ecc, ecc_rate, omega_rel, 0.0)
+            self.forces(ecc, ecc_rate, omega_rel, t)
         return self._cache.get(key)
 
     def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
-        key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
+        key = self._state_key(ecc, ecc_rate, omega_rel, t)
+        self._last_key = key
         if not all(math.isfinite(v) for v in key):
             return _NAN_FORCES
-        if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * (1 - 1e-9):
+        if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * self.model.max_eccentricity_ratio * (1 - 1e-9):
             return _NAN_FORCES
         if not jacobian and key != self._key and key in self._cache:
             # a state solved before (e.g. an output state evaluated again at the start of the next
@@ -90,12 +110,17 @@ class FilmJoint(ClearanceJoint):
             return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
         try:
             if key != self._key:
-                self._result = self.model.solve(self._kinematics(key[:2], key[2:4], key[4], 0.0))
+                self._result = self.model.solve(self._kinematics(key[:2], key[2:4], key[4], 0.0),
+                                                float(t) if self._elastic else None)
                 self._key = key
                 self.n_solves += 1
                 self._cache[key] = self._result
+                if self._elastic:
+                    self._deformations[key] = self.model.deformation_state()
                 if len(self._cache) > self.CACHE_SIZE:
-                    del self._cache[next(iter(self._cache))]
+                    oldest = next(iter(self._cache))
+                    del self._cache[oldest]
+                    self._deformations.pop(oldest, None)
             jac = None
             if jacobian:
                 jac = self.model.jacobian().matrix
@@ -260,6 +285,9 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     from solver.film.ehd import bushing_model
     from solver.film.viscosity import viscosity_law
 
+    if se.elastic != "none" and oil.inlet == "max-gap":
+        raise InputError("small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
+                         "bushing: inlet 'none' or 'hole')")
     if oil.inlet == "hole" and not oil.supply_hole_diameter < min(se.width, se.pin_radius):
         raise InputError(f"oil.supply_hole_diameter_mm = {oil.supply_hole_diameter * 1e3:g} is out of range "
                          f"(allowed: < min(width, pin radius) = {min(se.width, se.pin_radius) * 1e3:g})")

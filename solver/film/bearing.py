@@ -108,6 +108,10 @@ DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B
 AXIAL_ELEMENTS = 10  # at least this many elements across the half width (bench/bearing_mesh_convergence.py)
 
 
+#: |e| / c the pin may reach in an elastic bushing (the deformation then holds the film open)
+ELASTIC_MAX_ECCENTRICITY = 2.0
+
+
 def default_mesh_size(width: float, radius: float) -> float:
     """Element size / R that resolves both directions: DEFAULT_MESH_SIZE around the bearing, and at
     least AXIAL_ELEMENTS across the half width, where the pressure falls to the edges (a narrow
@@ -348,9 +352,18 @@ class FilmModel:
         # the true pressure / p_ref: the reduced pressure mapped node by node (solver.film.viscosity)
         self.pressure = fem.Function(self.V, name="true_pressure") if piezoviscosity is not None else self.P
         self.W = fem.Function(self.V, name="deformation") if elastic is not None else None  # w / c
+        # the deformation's rate by implicit Euler from the last committed state (commit_deformation)
+        self._W_previous = fem.Function(self.V) if elastic is not None else None
+        self._inverse_step = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
+        self._history: tuple[float, np.ndarray, np.ndarray] | None = None  # (t_n [s], q_n, W_n)
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
-        self.geometry = film.FilmGeometry(self.mesh, self.params, deformation=self.W)
+        # the flow floor of the elastic film: a quarter of the roughness (h/sigma < 0.25 is asperity
+        # contact; the flow factors are held below 0.5), or 1e-3 c on smooth surfaces
+        floor = 0.25 * self.sigma / bearing.clearance if self.sigma > 0 else 1e-3
+        self.geometry = film.FilmGeometry(self.mesh, self.params, deformation=self.W,
+                                          previous_deformation=self._W_previous, inverse_step=self._inverse_step,
+                                          flow_floor=floor)
         self.roughness, self.contact = roughness, contact
         self.slip_regularisation = slip_regularisation
         self._build_forms()
@@ -539,6 +552,20 @@ class FilmModel:
             bcs.append(fem.dirichletbc(supply, fem.locate_dofs_topological(self.V, 2, cells)))
         return bcs
 
+    def deformation_state(self) -> np.ndarray | None:
+        """The elastic unknowns of the last solve (a copy), for ``commit_deformation``; None if rigid."""
+        return None if self._ehd is None else self._ehd.q.copy()
+
+    def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
+        """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate."""
+        if self._ehd is None:
+            return
+        if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
+            raise InputError("an elastic bushing's deformation rate needs inlet 'none' or 'hole' (allowed with "
+                             "'max-gap': quasi-static solves only)")
+        self._history = (time_s, state.copy(), self._ehd.Phi @ state)
+        self._W_previous.x.array[: len(self._history[2])] = self._history[2]
+
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
         """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
         return self.piezo.pressure(Q * self.scales.pressure) / self.scales.pressure
@@ -552,6 +579,12 @@ class FilmModel:
         return p if self.piezo is None else float(self.piezo.reduced(p))
 
     @property
+    def max_eccentricity_ratio(self) -> float:
+        """|e| / c below which the film is defined: 1 when rigid; with an elastic bushing the pin may
+        go further, into the deformed bushing (up to ELASTIC_MAX_ECCENTRICITY)."""
+        return 1.0 if self.elastic is None else ELASTIC_MAX_ECCENTRICITY
+
+    @property
     def dofs(self) -> int:
         """Global number of pressure unknowns."""
         return self._dofs
@@ -561,8 +594,8 @@ class FilmModel:
         """Update the film's constants from SI kinematics (bushing frame)."""
         s, c = self.scales, self.bearing.clearance
         eps = np.asarray(kin.ecc, float) / c
-        if not math.hypot(*eps) < 1.0:
-            raise out_of_range("eccentricity ratio", f"{math.hypot(*eps):.6g}", "[0, 1)")
+        if not math.hypot(*eps) < self.max_eccentricity_ratio:
+            raise out_of_range("eccentricity ratio", f"{math.hypot(*eps):.6g}", f"[0, {self.max_eccentricity_ratio:g})")
         rate = np.asarray(kin.ecc_rate, float) / s.eccentricity_rate
         U2 = self.bearing.radius * (kin.omega_journal - kin.omega_bushing) / s.speed  # journal, bushing frame
         U1 = 0.0
@@ -584,11 +617,19 @@ class FilmModel:
             return math.atan2(rate[1], rate[0]) + math.pi
         return 0.0
 
-    def solve(self, kin: Kinematics) -> FilmResult:
-        """Solve the film for the given kinematics (warm start from the last pressure)."""
+    def solve(self, kin: Kinematics, time_s: float | None = None) -> FilmResult:
+        """Solve the film for the given kinematics (warm start from the last pressure).
+
+        With an elastic bushing, ``time_s`` [s] after the last ``commit_deformation`` puts the
+        deformation's rate (implicit Euler from the committed state) in the squeeze term; without it
+        (or before a commit) the deformation is quasi-static.
+        """
         start = time.perf_counter()
         stats = self.stats
         stats.solves += 1
+        if self._ehd is not None:
+            dt = None if self._history is None or time_s is None else time_s - self._history[0]
+            self._inverse_step.value = 1.0 / (dt * self.scales.omega_ref) if dt is not None and dt > 0 else 0.0
         try:
             result = self._solve(kin, start)
         except FilmNotConverged as err:
@@ -614,7 +655,7 @@ class FilmModel:
         solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
         self.set_kinematics(solved)
         if self._ehd is not None:
-            iterations = self._ehd.solve()
+            iterations = self._solve_elastic()
         else:
             self.solver.update()
             iterations = self.solver.solve()
@@ -655,6 +696,13 @@ class FilmModel:
             side_flow=-self._assemble(self._side_flow_form) * s.flow,
             iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
             max_deformation=deformation[0], max_deformation_theta=deformation[1])
+
+    def _solve_elastic(self) -> int:
+        """The coupled solve at the current constants (solver.film.ehd)."""
+        coords = self._owned_coords
+        self._ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array([float(self.params.eps_x.value),
+                                                                float(self.params.eps_y.value)])
+        return self._ehd.solve()
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid

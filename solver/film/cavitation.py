@@ -113,10 +113,11 @@ class FixedPatternLU:
         self.b.setArray(b)
         self.ksp.solve(self.b, self.x)
         step = self.x.getArray(readonly=True)
+        if self.ksp.getConvergedReason() < 0 or not np.all(np.isfinite(step)):
+            y.set(float("nan"))  # a failed factorisation: a NaN step makes SNES diverge
+            return
         factor = 1.0 if self.limit is None else self.limit(step)
         y.setArray(factor * step[self.local])
-        if self.ksp.getConvergedReason() < 0:  # a failed factorisation: a NaN step makes SNES diverge
-            y.set(float("nan"))
 
     def destroy(self, pc=None) -> None:
         for obj in (self.ksp, self.K, self.b, self.x):

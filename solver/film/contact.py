@@ -10,8 +10,10 @@ Greenwood & Tripp, Proc. IMechE 185 (1970) 625-633 (DESIGN 3.3), with Hs = h/sig
 F_5/2 and F_2 are computed by adaptive quadrature (scipy) on a table of Hs in [0, HS_MAX] and
 interpolated: a cubic spline of log F in numpy, and inside UFL forms an exponential of a Chebyshev
 polynomial least-squares fitted to the same table (``fit_error`` reports its largest relative error,
-below 1e-5). Beyond HS_MAX = 6 the values (< 1e-12 of F(0)) are taken as 0; below 0 (not reachable:
-the film thickness of a rigid journal is positive) the value at 0 is held. The common fit
+below 1e-5). Beyond HS_MAX = 6 the values (< 1e-12 of F(0)) are taken as 0. Below 0 (the nominal gap
+of a rigid journal is positive, but a pin pressed into an elastic bushing can close it locally: the
+asperities then carry more) a second table and fit cover Hs in [HS_MIN, 0], with the same accuracy; below
+HS_MIN = -4 the value at HS_MIN is held. The common fit
 ``F_5/2 ~ 4.4086e-5 (4 - Hs)^6.804`` (Hs < 4) is available as ``method="fit"``; it is 11 % low at Hs = 0.
 """
 
@@ -29,6 +31,7 @@ from scipy.interpolate import CubicSpline
 from solver.errors import out_of_range
 
 HS_MAX = 6.0
+HS_MIN = -4.0
 _CHEBYSHEV_DEGREE = 16
 COMMON_FIT = (4.4086e-5, 4.0, 6.804)  # F_5/2 ~ a (b - Hs)^c for Hs < b
 
@@ -40,33 +43,35 @@ def gt_integral(n: float, Hs: float) -> float:
 
 
 @functools.lru_cache(maxsize=None)
-def _table(n: float) -> tuple[np.ndarray, np.ndarray]:
-    H = np.linspace(0.0, HS_MAX, 241)
+def _table(n: float, negative: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    H = np.linspace(HS_MIN, 0.0, 161) if negative else np.linspace(0.0, HS_MAX, 241)
     return H, np.log(np.array([gt_integral(n, h) for h in H]))
 
 
 @functools.lru_cache(maxsize=None)
-def _spline(n: float):
-    return CubicSpline(*_table(n))
+def _spline(n: float, negative: bool = False):
+    return CubicSpline(*_table(n, negative))
 
 
 @functools.lru_cache(maxsize=None)
-def _chebyshev(n: float) -> np.ndarray:
-    H, logF = _table(n)
-    return np.polynomial.chebyshev.chebfit(2 * H / HS_MAX - 1, logF, _CHEBYSHEV_DEGREE)
+def _chebyshev(n: float, negative: bool = False) -> np.ndarray:
+    H, logF = _table(n, negative)
+    low, high = (HS_MIN, 0.0) if negative else (0.0, HS_MAX)
+    return np.polynomial.chebyshev.chebfit((2 * H - low - high) / (high - low), logF, _CHEBYSHEV_DEGREE)
 
 
-def fit_error(n: float) -> float:
+def fit_error(n: float, negative: bool = False) -> float:
     """Largest relative error of the UFL representation against quadrature, on a fine grid."""
-    H = np.linspace(0.0, HS_MAX, 97)
+    H = np.linspace(HS_MIN, 0.0, 65) if negative else np.linspace(0.0, HS_MAX, 97)
     exact = np.array([gt_integral(n, h) for h in H])
-    return float(np.max(np.abs(_chebyshev_exp(n, H, np) / exact - 1)))
+    return float(np.max(np.abs(_chebyshev_exp(n, H, np, negative) / exact - 1)))
 
 
-def _chebyshev_exp(n: float, Hs: Any, mod: Any) -> Any:
-    """exp(sum c_k T_k(x)), x = 2 Hs/HS_MAX - 1, by the Clenshaw recurrence (works for UFL)."""
-    c = _chebyshev(n)
-    x = 2.0 * Hs / HS_MAX - 1.0
+def _chebyshev_exp(n: float, Hs: Any, mod: Any, negative: bool = False) -> Any:
+    """exp(sum c_k T_k(x)), x the position of Hs in its table's range, by the Clenshaw recurrence (works for UFL)."""
+    c = _chebyshev(n, negative)
+    low, high = (HS_MIN, 0.0) if negative else (0.0, HS_MAX)
+    x = (2.0 * Hs - low - high) / (high - low)
     b1, b2 = 0.0, 0.0
     for ck in c[:0:-1]:
         b1, b2 = 2.0 * x * b1 - b2 + float(ck), b1
@@ -86,10 +91,14 @@ def gt_function(n: float, Hs: Any, mod: Any = np, method: str = "exact") -> Any:
     if method != "exact":
         raise out_of_range("asperity method", repr(method), "'exact' or 'fit'")
     if mod is np:
-        H = np.clip(np.asarray(Hs, float), 0.0, HS_MAX)
-        return np.where(np.asarray(Hs) < HS_MAX, np.exp(_spline(n)(H)), 0.0)
+        Hs = np.asarray(Hs, float)
+        H = np.clip(Hs, 0.0, HS_MAX)
+        positive = np.where(Hs < HS_MAX, np.exp(_spline(n)(H)), 0.0)
+        return np.where(Hs < 0.0, np.exp(_spline(n, True)(np.clip(Hs, HS_MIN, 0.0))), positive)
     H = mod.max_value(mod.min_value(Hs, HS_MAX), 0.0)
-    return mod.conditional(mod.lt(Hs, HS_MAX), _chebyshev_exp(n, H, mod), 0.0)
+    positive = mod.conditional(mod.lt(Hs, HS_MAX), _chebyshev_exp(n, H, mod), 0.0)
+    negative = _chebyshev_exp(n, mod.max_value(mod.min_value(Hs, 0.0), HS_MIN), mod, True)
+    return mod.conditional(mod.lt(Hs, 0.0), negative, positive)
 
 
 def composite_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import logging
 import math
 import weakref
 
@@ -59,14 +60,22 @@ from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
+log = logging.getLogger(__name__)
 _instance_counter = itertools.count()
 
-#: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS).
-#: The semismooth method: the reduced-space one (the rigid film's) projects the pressure onto its
-#: bound after each step, which leaves the deformation step computed for the unprojected pressure;
-#: on the coupled problem it then cycles (a mixed-lubrication state at h_min = 0.5 um: no
-#: convergence in 100 iterations, against 35 from a cold start with this one).
-ELASTIC_OPTIONS: dict[str, str | float | int] = {"snes_type": "vinewtonssls", "snes_max_it": 200}
+#: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS):
+#: the reduced-space method, as the rigid film, from a start near the solution (a warm start: 3
+#: iterations along a load path).
+ELASTIC_OPTIONS: dict[str, str | float | int] = {"snes_max_it": 30}
+#: From far (a cold start, or a warm one it cannot finish) the reduced-space method can cycle: it
+#: projects the pressure onto its bound after each step, which leaves the deformation's step computed
+#: for the unprojected pressure (a mixed state at h_min = 0.5 um from a cold start: no convergence in
+#: 200 iterations). The semismooth (Fischer-Burmeister) method converges from there (35 iterations)
+#: but only linearly where the complementarity is degenerate (pressure and residual both ~0), so it
+#: brings the iterate near the solution (FAR_TOLERANCE of the start's residual) and the
+#: reduced-space method finishes.
+FAR_OPTIONS: dict[str, str | float | int] = {"snes_type": "vinewtonssls", "snes_max_it": 200}
+FAR_TOLERANCE = 1e-6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -174,29 +183,38 @@ class ElasticFilm:
         self.lower_vec.setArray(np.concatenate([lower, np.full(m, PETSc.NINFINITY)]))
         self.upper_vec.set(PETSc.INFINITY)
         self.lower = lower
-        self.prefix = f"ehd{next(_instance_counter)}_"
-        self.snes = PETSc.SNES().create(self.comm)
-        self.snes.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
         merged = {**DEFAULT_OPTIONS, **ELASTIC_OPTIONS, **(options or {})}
-        for key, value in merged.items():
-            opts[self.prefix + key] = value
-        self.snes.setFromOptions()
-        for key in merged:
-            opts.delValue(self.prefix + key)
         self._rtol = float(merged["snes_rtol"])
-        self.snes.setFunction(self._residual, self.r)
-        self.snes.setJacobian(self._jacobian, self.A)
-        self.snes.setVariableBounds(self.lower_vec, self.upper_vec)
-        self.snes.setForceIteration(True)
-        self.lu = FixedPatternLU(self)  # the sensitivities' factorisation (active set frozen)
-        self.damped = _DampedLU(self)  # the semismooth Newton's: LU of the full matrix, limited step
-        pc = self.snes.getKSP().getPC()
-        pc.setType(PETSc.PC.Type.PYTHON)
-        pc.setPythonContext(self.damped)
+        self.snes = self._snes(merged)
+        self.far = self._snes({**DEFAULT_OPTIONS, **FAR_OPTIONS})
+        # the reduced-space method's and the sensitivities' factorisation (fixed pattern)
+        self.lu = FixedPatternLU(self)
+        self.lu.limit = self._limit
+        self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
+        for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
+            pc = snes.getKSP().getPC()
+            pc.setType(PETSc.PC.Type.PYTHON)
+            pc.setPythonContext(context)
         self.q = np.zeros(m)
+        self.rigid_gap = np.ones(n)  # H_rigid at the dofs of the state being solved (set by the FilmModel)
         self._state: np.ndarray | None = None  # the x of the cached evaluation
         self.iterations = 0
+
+    def _snes(self, options: dict) -> PETSc.SNES:
+        snes = PETSc.SNES().create(self.comm)
+        prefix = f"ehd{next(_instance_counter)}_"
+        snes.setOptionsPrefix(prefix)
+        opts = PETSc.Options()
+        for key, value in options.items():
+            opts[prefix + key] = value
+        snes.setFromOptions()
+        for key in options:  # keep the global options database clean
+            opts.delValue(prefix + key)
+        snes.setFunction(self._residual, self.r)
+        snes.setJacobian(self._jacobian, self.A)
+        snes.setVariableBounds(self.lower_vec, self.upper_vec)
+        snes.setForceIteration(True)
+        return snes
 
     # -- the coupled residual and Jacobian ---------------------------------------------------------
     def residual(self, x: np.ndarray) -> np.ndarray:
@@ -258,12 +276,22 @@ class ElasticFilm:
     #: one, or a warm one after a large change of load) the full step overshoots the deformation by
     #: many clearances and the iteration diverges; limited, it follows the film into the solution
     MAX_THICKNESS_STEP = 0.2
+    MAX_GAP_CLOSURE = 0.7
 
     def _limit(self, step: np.ndarray) -> float:
-        """The factor of the Newton step x - step: at most MAX_THICKNESS_STEP of film thickness, and
-        with piezoviscosity at most half the way from the reduced pressure to its bound."""
-        largest = float(np.max(np.abs(self.Phi @ step[self.n :]), initial=0.0))
+        """The factor of the Newton step x - step: at most MAX_THICKNESS_STEP of film thickness, and at
+        most MAX_GAP_CLOSURE of the gap where it is open wider than the flow floor's scale (so the iterates
+        do not jump across the contact), and with piezoviscosity at most half the way from the reduced
+        pressure to its bound."""
+        if len(step) != self.N:  # a reduced-space step (vinewtonrsls): not limited
+            return 1.0
+        dW = -(self.Phi @ step[self.n :])
+        largest = float(np.max(np.abs(dW), initial=0.0))
         factor = min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
+        H = self.rigid_gap + self.W.x.array[: self.n]
+        closing = (dW < 0) & (H > 0.05)
+        if np.any(closing):
+            factor = min(factor, float(np.min(self.MAX_GAP_CLOSURE * H[closing] / -dW[closing])))
         if self.q_limit is not None:
             rise = -step[: self.n]
             room = self.q_limit - self._state[: self.n]
@@ -286,14 +314,18 @@ class ElasticFilm:
         x0 = np.concatenate([P0, self.q])
         r0 = self.residual(x0)
         scale = max(np.linalg.norm(self.op.source), np.linalg.norm(r0[n:]), 1e-3)
-        self.snes.setTolerances(atol=max(1e-11 * scale, 1e-14), rtol=self._rtol, stol=0.0)
+        atol = max(1e-11 * scale, 1e-14)
+        self.snes.setTolerances(atol=atol, rtol=self._rtol, stol=0.0)
         self.lu.inactive = None
-        self.x.setArray(x0)
-        self.snes.solve(None, self.x)
-        reason = self.snes.getConvergedReason()
-        self.iterations = self.snes.getIterationNumber()
+        self.iterations = 0
+        reason = self._run(self.snes, x0)
+        if reason <= 0:  # from far: the semismooth method brings it near, the reduced-space one finishes
+            self.far.setTolerances(atol=max(FAR_TOLERANCE * np.linalg.norm(r0), atol), rtol=0.0, stol=0.0)
+            reason = self._run(self.far, x0)
+            if reason > 0:
+                reason = self._run(self.snes, self.x.getArray(readonly=True).copy())
         x = self.x.getArray(readonly=True).copy()
-        if reason <= 0 or not np.all(np.isfinite(x)):
+        if reason <= 0:
             self.residual(x0)  # back to the last good state
             raise FilmNotConverged("elastic film solve did not converge", reason, self.iterations)
         if not np.array_equal(x, self._state):
@@ -304,6 +336,14 @@ class ElasticFilm:
             raise FilmNotConverged(f"elastic film solve violated the cavitation bound by {violation:.3g}", reason,
                                    self.iterations)
         return self.iterations
+
+    def _run(self, snes: PETSc.SNES, x0: np.ndarray) -> int:
+        """One SNES from x0; its converged reason (negative also for a non-finite result)."""
+        self.x.setArray(x0)
+        snes.solve(None, self.x)
+        self.iterations += snes.getIterationNumber()
+        reason = snes.getConvergedReason()
+        return reason if np.all(np.isfinite(self.x.getArray(readonly=True))) else -1
 
     # -- sensitivities --------------------------------------------------------------------------
     def inactive_set(self) -> PETSc.IS:
@@ -350,7 +390,7 @@ class ElasticFilm:
     def close(self) -> None:
         self.lu.destroy()
         self.damped.destroy()
-        for obj in (self.snes, self.A, self.x, self.r, self.lower_vec, self.upper_vec):
+        for obj in (self.snes, self.far, self.A, self.x, self.r, self.lower_vec, self.upper_vec):
             obj.destroy()
 
 
@@ -402,10 +442,15 @@ def bushing_model(kind: str, *, radius: float, width: float, bushing_thickness: 
         return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
     if kind != "fe":
         raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
-    from solver.film.compliance import EyeGeometry, eye_compliance  # noqa: PLC0415 - gmsh and the 3D model: only for fe
+    from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads  # noqa: PLC0415 - gmsh, 3D: fe only
 
     geometry = EyeGeometry(bore_radius=radius, width=width, bushing_thickness=bushing_thickness,
                            eye_outer_radius=eye_outer_radius, E_eye=E_eye, nu_eye=nu_eye, E_bushing=E_bushing,
                            nu_bushing=nu_bushing, shank_angle_deg=shank_angle_deg,
                            shank_half_angle_deg=shank_half_angle_deg)
-    return ModalCompliance(eye_compliance(geometry, comm=comm), modes)
+    compliance = eye_compliance(geometry, comm=comm)
+    loads = reference_loads(compliance)
+    errors = compliance.truncation_error(modes, np.column_stack(list(loads.values())))
+    log.info("eye compliance with %d modes: truncation error %s", modes,
+             ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)))
+    return ModalCompliance(compliance, modes)

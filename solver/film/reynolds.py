@@ -85,10 +85,15 @@ class FilmGeometry:
     The eccentricity and its rate are wrapped in ``ufl.variable`` so that derivatives of any form
     with respect to them (for the film's Jacobian) come from ``ufl.diff``. With ``deformation`` (a
     Function W = w / c, the bushing's radial deformation, positive opening the gap) the thickness is
-    ``H = H_rigid + W`` (DESIGN 7); its rate in the squeeze term is the caller's (quasi-static here).
+    ``H = H_rigid + W`` (DESIGN 7), and with ``previous_deformation`` W_n and ``inverse_step`` 1 / (T -
+    T_n) (a Constant; 0: quasi-static) the squeeze term has the deformation's rate (W - W_n) / (T - T_n).
+    The flow and the shear stresses then use ``H_flow``, H floored smoothly below ``flow_floor`` (the
+    nominal gap may close locally where the pin presses into the bushing); without deformation
+    ``H_flow`` is H.
     """
 
-    def __init__(self, mesh, params: FilmParameters, deformation=None):
+    def __init__(self, mesh, params: FilmParameters, deformation=None, previous_deformation=None, inverse_step=None,
+                 flow_floor: float = 0.0):
         x = ufl.SpatialCoordinate(mesh)
         r = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
         self.cos, self.sin = x[0] / r, x[1] / r  # exact on the circle through each point
@@ -104,6 +109,7 @@ class FilmGeometry:
         self.dH_dtheta = self.eps_x * self.sin - self.eps_y * self.cos
         self.dH_dT = -self.deps_x * self.cos - self.deps_y * self.sin
         self.W = self.dW_dtheta = None
+        self.H_flow = self.H  # the thickness in the Poiseuille flow and the shear stresses
         if deformation is not None:
             # elastic bushing (DESIGN 7): H = H_rigid + W with W = w / c the radial deformation (a
             # Function); W and its circumferential slope are variables so that the film's coupled
@@ -112,6 +118,13 @@ class FilmGeometry:
             self.dW_dtheta = ufl.variable(ufl.dot(ufl.grad(deformation), self.tangent))
             self.H = self.H + self.W
             self.dH_dtheta = self.dH_dtheta + self.dW_dtheta
+            if previous_deformation is not None:
+                # its rate by implicit Euler from the last accepted state: (W - W_n) / (T - T_n)
+                self.dH_dT = self.dH_dT + (self.W - previous_deformation) * inverse_step
+            # a pin pressed into the bushing can close the nominal gap locally (the asperities carry the
+            # load there): below flow_floor the flow and shear see h0 exp(H/h0 - 1), positive, C1 at h0
+            h0 = flow_floor
+            self.H_flow = ufl.conditional(ufl.lt(self.H, h0), h0 * ufl.exp(self.H / h0 - 1.0), self.H)
 
     def variables(self) -> dict[str, Any]:
         """The UFL variables the film's Jacobian is taken with respect to."""
@@ -139,7 +152,7 @@ def reynolds_coefficients(geometry: FilmGeometry, roughness: Roughness | None = 
         Hs = ufl.variable(g.H / prm.S)
         dphi_s = ufl.diff(roughness.shear_flow(Hs, mod=ufl), Hs)
         source += g.U_half_diff * dphi_s * g.dH_dtheta
-    return g.H**3 * phi_x, g.H**3 * phi_y, source
+    return g.H_flow**3 * phi_x, g.H_flow**3 * phi_y, source
 
 
 def reynolds_integrand(P, v, geometry: FilmGeometry, roughness: Roughness | None = None):
@@ -170,8 +183,8 @@ def shear_traction_integrands(P, geometry: FilmGeometry, roughness: Roughness | 
         Phi_f, Phi_fs, Phi_fp = 1.0, 0.0, 1.0
     else:
         Phi_f, Phi_fs, Phi_fp = roughness.shear_stress_factors(g.H / prm.S, mod=ufl)
-    couette = relative_speed / g.H
-    poiseuille = 6.0 * g.H * dP_dtheta
+    couette = relative_speed / g.H_flow
+    poiseuille = 6.0 * g.H_flow * dP_dtheta
     return couette * (Phi_f - Phi_fs), -couette * (Phi_f + Phi_fs), -Phi_fp * poiseuille
 
 

@@ -112,7 +112,9 @@ class _Run:
         # Every output angle is a step end: the cubic dense output is fine for positions but not for the
         # relative velocity of a stiff joint, and the film force depends on that velocity.
         q, t = q0, t0
+        self.committed = []  # the elastic unknowns at each output state (None: rigid), for write_fields
         row, qd = self._state_outputs(t0, q0, qd0)
+        self._commit(t0)
         rows = [row]
         step = jacobian = interpolant = None
         for k in range(1, n_out + 1):
@@ -129,6 +131,7 @@ class _Run:
             jacobian, interpolant = tr.jacobian, tr.interpolant
             step = min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
             row, qd = self._state_outputs(t, q, tr.qd[-1])  # the next interval starts from these velocities
+            self._commit(t)
             rows.append(row)
             self.steps += tr.n_steps
             rejected += tr.n_rejected
@@ -149,6 +152,12 @@ class _Run:
                           film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds)
             timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
         return CycleOutput(columns, float(np.nanmin(h_min)), timing), (t, q, qd)
+
+    def _commit(self, t: float) -> None:
+        """An accepted output state: an elastic bushing's deformation there starts the next rate."""
+        if self.model is not None and hasattr(self.joint, "commit"):
+            self.joint.commit(t)
+            self.committed.append(self.model.deformation_state())
 
     def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
@@ -210,7 +219,7 @@ class _Run:
                           h_min=c - math.hypot(*kin.ecc), friction_torque=forces.journal_torque,
                           friction_power=friction, squeeze_power=squeeze,
                           dissipated_power=squeeze + friction - omega_b * moment)
-            result = self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel) if self.model is not None else None
+            result = self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel, t) if self.model is not None else None
             if result is not None:
                 values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
                               contact_area_ratio=result.contact_area_ratio, h_min=result.h_min,
@@ -244,11 +253,18 @@ class _Run:
         cols = cycle.columns
         angles = cols["crank_angle"]
 
+        committed = getattr(self, "committed", [])
+
         def solve_at(k: int) -> None:
             kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
                              (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
                              float(cols["omega_rel"][k]), 0.0)
-            self.model.solve(kin)
+            if k > 0 and k - 1 < len(committed) and committed[k - 1] is not None:
+                # elastic bushing: the deformation's rate from the previous output state, as in the run
+                self.model.commit_deformation(committed[k - 1], float(cols["time"][k - 1]))
+                self.model.solve(kin, float(cols["time"][k]))
+            else:
+                self.model.solve(kin)
 
         paths = []
         field_step = math.degrees(self.case.solver.field_step)

@@ -145,3 +145,111 @@ def test_elastic_bushing_carries_less_at_the_same_eccentricity_and_converges_col
                 assert np.min(model.P.x.array) >= -1e-12
     assert out["elastic"].p_max < 0.25 * out["rigid"].p_max
     assert out["elastic"].asperity_load < out["rigid"].asperity_load
+
+
+@pytest.mark.serial
+def test_deformation_rate_is_implicit_euler_from_the_committed_state():
+    """The deformation's rate in the squeeze term, (W - W_n) / (t - t_n) from the committed state:
+
+    * steady: committing the quasi-static solution and solving the same kinematics later gives it
+      back (zero rate) to the VI tolerance (1e-8 relative);
+    * from the deformation of a lighter load (eps 0.8) to eps 0.9, the squeeze of the deforming
+      bushing holds the deformation back: its change grows with the time step, and for a step long
+      against the film's time scale (1e3 s) it is the quasi-static one (1e-6 relative);
+    * the film's Jacobian with the rate term against central differences (as without it, 1e-5).
+    """
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    kin = lambda eps: Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0)  # noqa: E731
+    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)) as model:
+        steady = model.solve(kin(0.9))
+        state = model.deformation_state()
+        model.commit_deformation(state, 0.0)
+        again = model.solve(kin(0.9), 1e-4)
+        assert np.abs(model.deformation_state() - state).max() <= 1e-8 * np.abs(state).max()
+        assert again.load == pytest.approx(steady.load, rel=1e-8)
+        quasi_static = state
+        model.solve(kin(0.8))
+        lighter = model.deformation_state()
+        changes = []
+        for dt in (1e-6, 1e-5, 1e-4, 1e3):
+            model.commit_deformation(lighter, 0.0)
+            model.solve(kin(0.9), dt)
+            changes.append(np.abs(model.deformation_state() - lighter).max())
+        assert changes[0] < changes[1] < changes[2] < changes[3]
+        assert np.abs(model.deformation_state() - quasi_static).max() <= 1e-6 * np.abs(quasi_static).max()
+        # the Jacobian with the rate term (dt = 1e-5 s: the rate term matters)
+        model.commit_deformation(lighter, 0.0)
+        base = Kinematics((0.3 * C, -0.85 * C), (0.1 * C * OMEGA, -0.2 * C * OMEGA), OMEGA, 0.3 * OMEGA)
+        model.solve(base, 1e-5)
+        J = model.jacobian().matrix
+        steps = np.array([1e-4 * C] * 2 + [1e-4 * C * OMEGA] * 2 + [1e-4 * OMEGA])
+        J_fd = np.zeros((4, 5))
+        for j in range(5):
+            d = np.zeros(5)
+            d[j] = steps[j]
+            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
+                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
+                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
+            J_fd[:, j] = (_outputs(model.solve(plus, 1e-5)) - _outputs(model.solve(minus, 1e-5))) / (2 * steps[j])
+    for row in range(4):
+        scale = np.abs(J_fd[row]).max()
+        assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * scale, (row, J[row], J_fd[row])
+
+
+@pytest.fixture(scope="module")
+def coarse_eye(tmp_path_factory):
+    """A coarse finite-element compliance of the reference eye (36 x 3 loads, 0.6 R elements: seconds)."""
+    from solver.film.compliance import EyeGeometry, eye_compliance
+
+    geometry = EyeGeometry(bore_radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=1.7 * R,
+                           shank_angle_deg=90.0)
+    return eye_compliance(geometry, n_theta=36, n_z=3, element_size=0.6 * R,
+                          cache_dir=tmp_path_factory.mktemp("compliance"))
+
+
+@pytest.mark.serial
+def test_fe_deformation_is_the_compliance_applied_to_the_nodal_forces(coarse_eye):
+    """With every mode kept, the solved deformation at the film's nodes is T G T^T F, with G the
+    compliance matrix, T its interpolation to the film's nodes and F the nodal forces a_i p_i of the
+    solved pressure (SI, formed here from the output fields): checks the modal coupling and its
+    scaling against the compliance itself, to the VI tolerance (1e-8 of max w)."""
+    from solver.film.ehd import ModalCompliance
+
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    elastic = ModalCompliance(coarse_eye, coarse_eye.size)
+    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=elastic) as model:
+        model.solve(Kinematics((0.0, -0.9 * C), (0.0, -0.1 * C * OMEGA), OMEGA, 0.0))
+        fields = model.fields_si()
+        p, w = fields["pressure"].x.array, fields["deformation"].x.array
+        x = model._owned_coords
+        areas = model._operator.T_f @ np.ones(len(model._operator.cells)) * R**2
+    T = coarse_eye.interpolation(np.arctan2(x[:, 1], x[:, 0]), x[:, 2] * R)
+    expected = T @ (coarse_eye.matrix @ (T.T @ (areas * p)))
+    assert np.max(np.abs(w)) > 0.05 * C
+    assert np.abs(w - expected).max() <= 1e-8 * np.abs(expected).max()
+
+
+@pytest.mark.serial
+def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye):
+    """The film's Jacobian with the eye's compliance (24 modes, dense borders in the coupled matrix)
+    against central differences of full coupled solves at the mixed state (rough, contact); 1e-4 as
+    for the rigid film's mixed state."""
+    from solver.film.ehd import ModalCompliance
+
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    base, steps = MIXED, np.array([3e-6 * C] * 2 + [3e-6 * C * OMEGA] * 2 + [3e-6 * OMEGA])
+    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=ModalCompliance(coarse_eye, 24),
+                   **_rough()) as model:
+        assert abs(model.solve(base).max_deformation) > 0.05 * C
+        J = model.jacobian().matrix
+        J_fd = np.zeros((4, 5))
+        for j in range(5):
+            d = np.zeros(5)
+            d[j] = steps[j]
+            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
+                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
+                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
+            J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+    for row in range(4):
+        scale = np.abs(J_fd[row]).max()
+        assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
