@@ -189,6 +189,9 @@ class ElasticFilm:
         self.far = self._snes({**DEFAULT_OPTIONS, **FAR_OPTIONS})
         # the reduced-space method's and the sensitivities' factorisation (fixed pattern)
         self.lu = FixedPatternLU(self)
+        # MUMPS pivots: where the gap closes the film's rows become tiny against the deformation's and
+        # PETSc's own LU (no pivoting) meets zero pivots
+        self.lu.ksp.getPC().setFactorSolverType("mumps")
         self.lu.limit = self._limit
         self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
         for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
@@ -411,7 +414,7 @@ class _DampedLU:
         self.ksp = PETSc.KSP().create(film.comm)
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")
-        self.ksp.getPC().setFactorSolverType("petsc")
+        self.ksp.getPC().setFactorSolverType("mumps")
 
     def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
         A, _ = pc.getOperators()
