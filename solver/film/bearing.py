@@ -553,17 +553,22 @@ class FilmModel:
         return bcs
 
     def deformation_state(self) -> np.ndarray | None:
-        """The elastic unknowns of the last solve (a copy), for ``commit_deformation``; None if rigid."""
-        return None if self._ehd is None else self._ehd.q.copy()
+        """The coupled unknowns (pressure, then the elastic ones) of the last solve, a copy, for
+        ``commit_deformation``; None if rigid."""
+        if self._ehd is None:
+            return None
+        return np.concatenate([self.P.x.array[: self._ehd.n], self._ehd.q])
 
     def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
-        """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate."""
+        """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate
+        (and the start of a solve that fails from the last one)."""
         if self._ehd is None:
             return
         if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
             raise InputError("an elastic bushing's deformation rate needs inlet 'none' or 'hole' (allowed with "
                              "'max-gap': quasi-static solves only)")
-        self._history = (time_s, state.copy(), self._ehd.Phi @ state)
+        q = state[self._ehd.n :]
+        self._history = (time_s, state.copy(), self._ehd.Phi @ q)
         self._W_previous.x.array[: len(self._history[2])] = self._history[2]
 
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
@@ -698,11 +703,24 @@ class FilmModel:
             max_deformation=deformation[0], max_deformation_theta=deformation[1])
 
     def _solve_elastic(self) -> int:
-        """The coupled solve at the current constants (solver.film.ehd)."""
-        coords = self._owned_coords
-        self._ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array([float(self.params.eps_x.value),
-                                                                float(self.params.eps_y.value)])
-        return self._ehd.solve()
+        """The coupled solve at the current constants (solver.film.ehd). The warm start is the last
+        solve, which inside a time step's Newton iteration can be a state far from this one; if the
+        solve fails from there it is tried again from the committed state (the last accepted one)."""
+        coords, ehd = self._owned_coords, self._ehd
+        ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array([float(self.params.eps_x.value), float(self.params.eps_y.value)])
+        try:
+            return ehd.solve()
+        except FilmNotConverged as err:
+            if self._history is None:
+                raise
+            n = ehd.n
+            self.P.x.array[:n] = self._history[1][:n]
+            ehd.q = self._history[1][n:].copy()
+            try:
+                return err.iterations + ehd.solve()
+            except FilmNotConverged as again:
+                raise FilmNotConverged("elastic film solve did not converge (also from the last accepted state)",
+                                       again.reason, err.iterations + again.iterations) from None
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
