@@ -702,6 +702,10 @@ class FilmModel:
             iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
             max_deformation=deformation[0], max_deformation_theta=deformation[1])
 
+    #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
+    RATE_CONTINUATION = 2.0
+    RATE_CONTINUATION_START = 1e7
+
     def _solve_elastic(self) -> int:
         """The coupled solve at the current constants (solver.film.ehd). The warm start is the last
         solve, which inside a time step's Newton iteration can be a state far from this one; if the
@@ -713,14 +717,28 @@ class FilmModel:
         except FilmNotConverged as err:
             if self._history is None:
                 raise
-            n = ehd.n
-            self.P.x.array[:n] = self._history[1][:n]
-            ehd.q = self._history[1][n:].copy()
+            iterations = err.iterations
+        # From the last accepted state, continued in the deformation's rate: with a short step (a large
+        # 1/dt) the deformation stays near the accepted one and the solve is easy; 1/dt is then brought
+        # down to this step's in factors of RATE_CONTINUATION, each solve starting from the one before.
+        n, target = ehd.n, float(self._inverse_step.value)
+        self.P.x.array[:n] = self._history[1][:n]
+        ehd.q = self._history[1][n:].copy()
+        start = max(target, self.RATE_CONTINUATION_START / self.scales.omega_ref)
+        for inverse_step in [*start * self.RATE_CONTINUATION ** -np.arange(0, 40), 0.0]:
+            if inverse_step < target * (1 + 1e-12):
+                inverse_step = target
+            self._inverse_step.value = inverse_step
             try:
-                return err.iterations + ehd.solve()
+                iterations += ehd.solve()
             except FilmNotConverged as again:
-                raise FilmNotConverged("elastic film solve did not converge (also from the last accepted state)",
-                                       again.reason, err.iterations + again.iterations) from None
+                self._inverse_step.value = target
+                raise FilmNotConverged(f"elastic film solve did not converge (also continued from the last "
+                                       f"accepted state, to dt = {1 / (inverse_step * self.scales.omega_ref):.3g} s)",
+                                       again.reason, iterations + again.iterations) from None
+            if inverse_step == target:
+                return iterations
+        raise AssertionError("unreachable: the continuation ends at the target")
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
