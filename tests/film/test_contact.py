@@ -36,6 +36,21 @@ def test_quadrature_and_table_match_reference(n):
     assert contact.fit_error(n) < 1e-6
 
 
+@pytest.mark.parametrize("n", [2.5, 2.0])
+def test_closed_gap_table_matches_reference(n):
+    """Below h = 0 (a pin pressed into an elastic bushing): the second table and its Chebyshev form
+    against the parabolic cylinder functions, 1e-6 relative over H in [-4, 0] (same grid and degree
+    as above); continuous at 0; held below -4."""
+    for H in (-4.0, -3.1, -2.0, -1.2, -0.5, -0.01):
+        ref = reference(n, H)
+        assert contact.gt_integral(n, H) == pytest.approx(ref, rel=1e-9)
+        assert contact.gt_function(n, np.array([H]))[0] == pytest.approx(ref, rel=1e-6)
+    assert contact.fit_error(n, negative=True) < 1e-6
+    at_zero = contact.gt_function(n, np.array([-1e-12, 0.0]))
+    assert at_zero[0] == pytest.approx(at_zero[1], rel=1e-6)
+    assert contact.gt_function(n, np.array([-9.0]))[0] == pytest.approx(reference(n, -4.0), rel=1e-6)
+
+
 def test_common_fit_error_is_reported():
     """The common fit 4.4086e-5 (4 - H)^6.804 is 11 % low at H = 0 (DESIGN 3.3): between 10 and 12 %."""
     fit = contact.gt_function(2.5, np.array([0.0]), method="fit")[0]
