@@ -17,10 +17,6 @@ R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
 BRONZE = dict(thickness=1.5e-3, E=115e9, nu=0.33)  # the reference small end's bushing
 
 
-def _outputs(result):
-    return np.array([*result.force, result.torque_journal, result.torque_bushing])
-
-
 def _rough():
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
     return dict(roughness=surface.roughness(), contact=surface.contact())
@@ -65,7 +61,7 @@ def test_coupled_jacobian_matches_finite_differences_of_the_residual():
 
 @pytest.mark.serial
 @pytest.mark.parametrize("rough", [False, True])
-def test_elastic_film_jacobian_matches_finite_differences(rough):
+def test_elastic_film_jacobian_matches_finite_differences(rough, film_differences):
     """The film's Jacobian with respect to the kinematics (active set frozen) with the bushing's
     deformation solved with the pressure: against central differences of full coupled solves, as for
     the rigid film (tests/film/test_film_jacobian.py). Smooth: hydrodynamic state eps = 0.8; rough:
@@ -83,14 +79,7 @@ def test_elastic_film_jacobian_matches_finite_differences(rough):
         result = model.solve(base)
         assert result.max_deformation > 0.02 * C  # the deformation matters at this state
         J = model.jacobian().matrix
-        J_fd = np.zeros((4, 5))
-        for j in range(5):
-            d = np.zeros(5)
-            d[j] = steps[j]
-            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-            J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+        J_fd = film_differences(model, base, steps)
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
@@ -148,7 +137,7 @@ def test_elastic_bushing_carries_less_at_the_same_eccentricity_and_converges_col
 
 
 @pytest.mark.serial
-def test_deformation_rate_is_implicit_euler_from_the_committed_state():
+def test_deformation_rate_is_implicit_euler_from_the_committed_state(film_differences):
     """The deformation's rate in the squeeze term, (W - W_n) / (t - t_n) from the committed state:
 
     * steady: committing the quasi-static solution and solving the same kinematics later gives it
@@ -185,14 +174,7 @@ def test_deformation_rate_is_implicit_euler_from_the_committed_state():
         model.solve(base, 1e-5)
         J = model.jacobian().matrix
         steps = np.array([1e-4 * C] * 2 + [1e-4 * C * OMEGA] * 2 + [1e-4 * OMEGA])
-        J_fd = np.zeros((4, 5))
-        for j in range(5):
-            d = np.zeros(5)
-            d[j] = steps[j]
-            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-            J_fd[:, j] = (_outputs(model.solve(plus, 1e-5)) - _outputs(model.solve(minus, 1e-5))) / (2 * steps[j])
+        J_fd = film_differences(model, base, steps, 1e-5)
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * scale, (row, J[row], J_fd[row])
@@ -232,7 +214,7 @@ def test_fe_deformation_is_the_compliance_applied_to_the_nodal_forces(coarse_eye
 
 
 @pytest.mark.serial
-def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye):
+def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye, film_differences):
     """The film's Jacobian with the eye's compliance (24 modes, dense borders in the coupled matrix)
     against central differences of full coupled solves at the mixed state (rough, contact); 1e-4 as
     for the rigid film's mixed state."""
@@ -244,14 +226,7 @@ def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye):
                    **_rough()) as model:
         assert abs(model.solve(base).max_deformation) > 0.05 * C
         J = model.jacobian().matrix
-        J_fd = np.zeros((4, 5))
-        for j in range(5):
-            d = np.zeros(5)
-            d[j] = steps[j]
-            plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                      (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                      base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-            J_fd[:, j] = (_outputs(model.solve(plus)) - _outputs(model.solve(minus))) / (2 * steps[j])
+        J_fd = film_differences(model, base, steps)
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
