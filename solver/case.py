@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
+from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_from_grade
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -106,7 +107,7 @@ class FieldSpec:
                 raise out_of_range(self.name, [f"{v:g}" for v in values], self.allowed())
             return
         if si_value is None or self.kind is not float:
-            if self.choices and si_value not in self.choices:
+            if self.choices and si_value not in self.choices and not (si_value is None and self.default is None):
                 raise out_of_range(self.name, repr(si_value), self.allowed())
             return
         value = si_value / self.scale
@@ -203,7 +204,18 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("small_end", "compliance_modes", "compliance_modes", int, 72, minimum=1, maximum=360,
               doc="fe: modes of the compliance kept (its truncation error is in run.log)"),
     # [oil]
-    _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s", doc="dynamic viscosity"),
+    _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s",
+       doc="dynamic viscosity in the film; or give the oil's data below instead (not both)"),
+    FieldSpec("oil", "grade", "grade", str, None, choices=tuple(GRADES),
+              doc="SAE grade with typical data-sheet values (solver/oil.py cites them); instead of viscosity_Pa_s"),
+    _f("oil", "kinematic_viscosity_40C_cSt", "kinematic_viscosity_40C", None, 1.0, MIN_KINEMATIC_VISCOSITY,
+       closed=True, unit="mm^2/s", doc="data sheet: kinematic viscosity at 40 C (with the 100 C value and density)"),
+    _f("oil", "kinematic_viscosity_100C_cSt", "kinematic_viscosity_100C", None, 1.0, MIN_KINEMATIC_VISCOSITY,
+       closed=True, unit="mm^2/s", doc="data sheet: kinematic viscosity at 100 C; < the 40 C value"),
+    _f("oil", "density_15C_kg_m3", "density_15C", None, 1.0, 700.0, 1200.0, unit="kg/m^3",
+       doc="data sheet: density at 15 C"),
+    _f("oil", "temperature_C", "temperature", 100.0, 1.0, -40.0, 250.0, closed=True, unit="C",
+       doc="film temperature, with grade or the data sheet: viscosity by ASTM D341 (Walther), density by linear expansion"),
     FieldSpec("oil", "piezoviscosity", "piezoviscosity", str, "none", choices=("none", "barus", "roelands"),
               doc="pressure dependence of the viscosity: none, barus (mu0 exp(alpha p)) or roelands (with the "
                   "initial slope alpha); in the film and the friction. With a rigid bushing the pressure can "
@@ -393,7 +405,12 @@ class SmallEnd:
 class Oil:
     """Lubricant (SI)."""
 
-    viscosity: float = _field("oil", "viscosity")  # Pa s
+    viscosity: float = _field("oil", "viscosity")  # Pa s (from the data below when they are given)
+    grade: str | None = None
+    kinematic_viscosity_40C: float | None = None  # mm^2/s
+    kinematic_viscosity_100C: float | None = None  # mm^2/s
+    density_15C: float | None = None  # kg/m^3
+    temperature: float = _field("oil", "temperature")  # C
     piezoviscosity: str = "none"
     pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
@@ -404,6 +421,32 @@ class Oil:
 
     def __post_init__(self) -> None:
         _check_section(self, "oil")
+        data = self.data()
+        if data is not None:  # the film's viscosity at the film temperature (frozen: set once here)
+            object.__setattr__(self, "viscosity", float(data.dynamic_viscosity(self.temperature)))
+
+    def data(self) -> OilData | None:
+        """The oil's data sheet (grade or the three values), or None when viscosity_Pa_s is used."""
+        sheet = (self.kinematic_viscosity_40C, self.kinematic_viscosity_100C, self.density_15C)
+        if self.grade is not None:
+            if any(v is not None for v in sheet):
+                raise InputError("give either oil.grade or the oil's data sheet (oil.kinematic_viscosity_40C_cSt, "
+                                 "..._100C_cSt, density_15C_kg_m3), not both")
+            return oil_from_grade(self.grade)
+        if all(v is None for v in sheet):
+            return None
+        if any(v is None for v in sheet):
+            raise InputError("the oil's data sheet needs oil.kinematic_viscosity_40C_cSt, oil.kinematic_viscosity_100C_cSt "
+                             "and oil.density_15C_kg_m3 together (allowed: all three, or none)")
+        try:
+            return OilData(*sheet)
+        except InputError as err:  # name the case's keys
+            message = str(err)
+            for name, key in (("kinematic_viscosity_40C", "kinematic_viscosity_40C_cSt"),
+                              ("kinematic_viscosity_100C", "kinematic_viscosity_100C_cSt"),
+                              ("density_15C", "density_15C_kg_m3")):
+                message = message.replace(f"{name} =", f"oil.{key} =").replace(f"{name} ", f"{key} ")
+            raise InputError(message) from None
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -561,6 +604,10 @@ def load_case(path: str | Path) -> Case:
             if key not in specs:
                 raise _unknown(f"{section}.{key}", [f"{section}.{k}" for k in specs], where)
             arguments[specs[key].attribute] = _convert(specs[key], value, directory)
+        if section == "oil" and "viscosity" in arguments and any(
+                k in arguments for k in ("grade", "kinematic_viscosity_40C", "kinematic_viscosity_100C", "density_15C")):
+            raise InputError("give either oil.viscosity_Pa_s or the oil's data (oil.grade, or "
+                             "oil.kinematic_viscosity_40C_cSt/..._100C_cSt/density_15C_kg_m3), not both")
         if section == "gas":
             if "imep" in arguments and "peak_pressure" in arguments:
                 raise InputError("give either gas.peak_pressure_bar or gas.imep_bar, not both")

@@ -163,6 +163,14 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ("[solver]\nfuture_option = 1\n", r"unknown key solver.future_option"),
         ("[oil]\ninlet = \"groove\"\n", r"^oil.inlet = 'groove' is out of range"),
         ("[engine\nbore_mm = 86\n", r"invalid TOML"),
+        ("[oil]\nviscosity_Pa_s = 0.01\ngrade = \"5W-30\"\n", r"give either oil.viscosity_Pa_s or the oil's data"),
+        ("[oil]\ngrade = \"5W-31\"\n", r"^oil.grade = '5W-31' is out of range \(allowed: '0W-20'"),
+        ("[oil]\nkinematic_viscosity_40C_cSt = 68\n", r"together \(allowed: all three, or none\)"),
+        ("[oil]\nkinematic_viscosity_40C_cSt = 10\nkinematic_viscosity_100C_cSt = 11\ndensity_15C_kg_m3 = 850\n",
+         r"^oil.kinematic_viscosity_40C_cSt = 10(\.0)? is out of range \(allowed: > oil.kinematic_viscosity_100C_cSt = 11"),
+        ("[oil]\ngrade = \"5W-30\"\ntemperature_C = 300\n", r"^oil.temperature_C = 300 is out of range"),
+        ("[small_end]\nelastic = \"fe\"\neye_outer_radius_mm = 11\n", r"^small_end.eye_outer_radius_mm = 11 is out"),
+        ("[oil]\npiezoviscosity = \"linear\"\n", r"^oil.piezoviscosity = 'linear' is out of range"),
     ],
 )
 def test_bad_values_give_one_line_errors_naming_the_field(tmp_path, text, message):
@@ -210,3 +218,24 @@ def test_the_readme_shows_the_current_case_table():
     """The README's case-format table is exactly the one generated from FIELDS (kept current)."""
     readme = (ROOT / "README.md").read_text()
     assert case_reference_markdown().strip() in readme
+
+
+def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
+    """oil.grade, or the three data-sheet values, replace viscosity_Pa_s: the film's viscosity is the
+    ASTM D341 viscosity at oil.temperature_C times the density there (solver.oil, tested against the
+    standard in tests/test_oil.py); the same sheet given both ways gives the same viscosity (1e-12),
+    and a hotter oil is thinner."""
+    from solver.oil import oil_from_grade
+
+    grade = load_case(write_case(tmp_path / "grade", "[oil]\ngrade = \"5W-30\"\ntemperature_C = 90\n"))
+    sheet = oil_from_grade("5W-30")
+    text = (f"[oil]\nkinematic_viscosity_40C_cSt = {sheet.kinematic_viscosity_40C}\n"
+            f"kinematic_viscosity_100C_cSt = {sheet.kinematic_viscosity_100C}\ndensity_15C_kg_m3 = {sheet.density_15C}\n"
+            "temperature_C = 90\n")
+    data = load_case(write_case(tmp_path / "sheet", text))
+    expected = sheet.kinematic_viscosity(90.0) * 1e-6 * sheet.density(90.0)
+    assert grade.oil.viscosity == pytest.approx(expected, rel=1e-12)
+    assert data.oil.viscosity == pytest.approx(expected, rel=1e-12)
+    hot = load_case(write_case(tmp_path / "hot", "[oil]\ngrade = \"5W-30\"\ntemperature_C = 120\n"))
+    assert hot.oil.viscosity < grade.oil.viscosity
+    assert load_case(write_case(tmp_path / "plain", "")).oil.viscosity == 0.010  # the reference default

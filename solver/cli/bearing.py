@@ -49,8 +49,21 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]")
     g.add_argument("--clearance", required=True, type=_number("--clearance", 0, allowed="> 0 m"),
                    help="radial clearance c [m]")
-    g.add_argument("--viscosity", required=True, type=_number("--viscosity", 0, allowed="> 0 Pa s"),
-                   help="dynamic viscosity [Pa s]")
+    g.add_argument("--viscosity", type=_number("--viscosity", 0, allowed="> 0 Pa s"), default=None,
+                   help="dynamic viscosity [Pa s]; or the oil's data: --grade, or --kinematic-viscosity-40C, "
+                        "--kinematic-viscosity-100C and --density, at --temperature")
+    g.add_argument("--grade", default=None, help="SAE grade with typical data-sheet values (0W-20, 0W-30, 5W-30, "
+                                                  "5W-40, 10W-40, 15W-40)")
+    g.add_argument("--kinematic-viscosity-40C", dest="nu40", type=_number("--kinematic-viscosity-40C", 0, allowed="> 0 cSt"),
+                   default=None, help="kinematic viscosity at 40 C [cSt = mm^2/s]")
+    g.add_argument("--kinematic-viscosity-100C", dest="nu100",
+                   type=_number("--kinematic-viscosity-100C", 0, allowed="> 0 cSt"), default=None,
+                   help="kinematic viscosity at 100 C [cSt]")
+    g.add_argument("--density", type=_number("--density", 0, allowed="> 0 kg/m^3"), default=None,
+                   help="density at 15 C [kg/m^3]")
+    g.add_argument("--temperature", type=_number("--temperature", -40, 250, low_open=False, high_open=False,
+                                                 allowed="[-40, 250] C"), default=None,
+                   help="oil temperature [C] for the data-sheet viscosity (default 100)")
     g.add_argument("--speed", type=_number("--speed", allowed="a finite number of rpm"), default=0.0,
                    help="journal speed [rpm] (bushing fixed; default 0)")
     g.add_argument("--cavitation-pressure", type=_number("--cavitation-pressure", high=0, high_open=False,
@@ -205,6 +218,39 @@ def _check(args) -> None:
         pass  # concentric rotation: zero load, still a valid question (friction, flow)
 
 
+def resolve_viscosity(args) -> None:
+    """Set ``args.viscosity`` [Pa s] from --viscosity or from the oil's data (solver.oil), and
+    ``args.temperature``: one kind of input, not both (the same rules as a case's [oil])."""
+    from solver.oil import OilData, oil_from_grade
+
+    sheet = (args.nu40, args.nu100, args.density)
+    given = args.grade is not None or any(v is not None for v in sheet)
+    if args.viscosity is not None:
+        if given or args.temperature is not None:
+            raise InputError("--viscosity with the oil's data (--grade, --kinematic-viscosity-*, --density, "
+                             "--temperature) (allowed: one of the two)")
+        return
+    if not given:
+        raise InputError("no viscosity (allowed: --viscosity, --grade, or --kinematic-viscosity-40C with "
+                         "--kinematic-viscosity-100C and --density)")
+    if args.grade is not None and any(v is not None for v in sheet):
+        raise InputError("--grade with --kinematic-viscosity-*/--density (allowed: one of the two)")
+    if args.grade is None and any(v is None for v in sheet):
+        raise InputError("--kinematic-viscosity-40C, --kinematic-viscosity-100C and --density go together "
+                         "(allowed: all three)")
+    flags = {"kinematic_viscosity_40C": "--kinematic-viscosity-40C", "kinematic_viscosity_100C":
+             "--kinematic-viscosity-100C", "density_15C": "--density", "oil grade": "--grade"}
+    try:
+        oil = oil_from_grade(args.grade) if args.grade is not None else OilData(*sheet)
+    except InputError as err:
+        message = str(err)
+        for name, flag in flags.items():
+            message = message.replace(name, flag)
+        raise InputError(message) from None
+    args.temperature = 100.0 if args.temperature is None else args.temperature
+    args.viscosity = float(oil.dynamic_viscosity(args.temperature))
+
+
 def bearing_from_args(args):
     from solver.film.bearing import Bearing  # dolfinx: after the arguments are checked
 
@@ -214,6 +260,7 @@ def bearing_from_args(args):
 
 def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
+    resolve_viscosity(args)
     _check(args)
     _check_elastic(args, comm)
     from solver.film.bearing import (  # dolfinx: after the checks
@@ -278,6 +325,7 @@ def run(args, comm) -> int:
         "power_loss_W": abs(result.torque_journal * omega),
         "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
         # elastic bushing and piezoviscous oil
+        "viscosity_Pa_s": args.viscosity, "temperature_C": args.temperature,
         "elastic": args.elastic, "piezoviscosity": args.piezoviscosity,
         "max_deformation_m": result.max_deformation,
         "max_deformation_angle_deg": math.degrees(result.max_deformation_theta),

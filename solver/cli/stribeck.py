@@ -25,6 +25,7 @@ from solver.cli.bearing import (
     add_geometry_arguments,
     add_surface_arguments,
     bearing_from_args,
+    resolve_viscosity,
     surface_from_args,
 )
 from solver.errors import InputError
@@ -77,6 +78,7 @@ def sweep(model, load: float, speeds_rpm: np.ndarray, radius: float, progress=No
 
 def run(args, comm) -> int:
     """Sweep the speeds, write netCDF and PNG; returns the exit status."""
+    resolve_viscosity(args)
     if args.points < 2:
         raise InputError(f"--points = {args.points} is out of range (allowed: >= 2)")
     if not args.speed_min < args.speed_max:
@@ -110,7 +112,8 @@ def run(args, comm) -> int:
     petroff = 2 * math.pi**2 * hersey * args.radius / args.clearance
     ds = io.stribeck_dataset(speeds, hersey, petroff, data, attrs={
         "load_N": args.load, "radius_m": args.radius, "width_m": args.width, "clearance_m": args.clearance,
-        "viscosity_Pa_s": args.viscosity, "sigma_m": surface.sigma, "asperity_friction": surface.asperity_friction,
+        "viscosity_Pa_s": args.viscosity, "temperature_C": "" if args.temperature is None else args.temperature,
+        "sigma_m": surface.sigma, "asperity_friction": surface.asperity_friction,
         "wall_time_s": time.perf_counter() - start})
     if comm.rank == 0:
         args.output.mkdir(parents=True, exist_ok=True)
@@ -120,6 +123,7 @@ def run(args, comm) -> int:
                    "hersey_at_min": float(hersey[np.nanargmin(data["friction_coefficient"])]),
                    "friction_coefficient_lowest_speed": float(data["friction_coefficient"][0]),
                    "friction_coefficient_highest_speed": float(data["friction_coefficient"][-1]),
-                   "netcdf": str(args.output / "stribeck.nc"), "png": str(args.output / "stribeck.png")}
+                   "netcdf": str(args.output / "stribeck.nc"), "png": str(args.output / "stribeck.png"),
+                   "viscosity_Pa_s": args.viscosity, "temperature_C": args.temperature}
         print(json.dumps(summary) if args.json else "\n".join(f"{k:36s} {v}" for k, v in summary.items()))
     return 0

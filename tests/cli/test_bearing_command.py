@@ -40,6 +40,17 @@ def _replace(args, flag, value):
     (GOOD + ["--eccentricity", "0.5", "--no-such-flag"], "--no-such-flag"),
     (GOOD + ["--load", "-5"], "--load"),
     (GOOD + ["--eccentricity", "0.5", "--mesh-size", "0"], "--mesh-size"),
+    (GOOD + ["--eccentricity", "0.5", "--grade", "5W-30"], "--viscosity"),
+    (_replace(GOOD, "--viscosity", None) + ["--eccentricity", "0.5"], "--viscosity"),
+    (_replace(GOOD, "--viscosity", None) + ["--eccentricity", "0.5", "--grade", "5W-31"], "--grade"),
+    (_replace(GOOD, "--viscosity", None) + ["--eccentricity", "0.5", "--kinematic-viscosity-40C", "68"],
+     "--kinematic-viscosity-100C"),
+    (_replace(GOOD, "--viscosity", None) + ["--eccentricity", "0.5", "--grade", "5W-30", "--temperature", "400"],
+     "--temperature"),
+    (GOOD + ["--eccentricity", "0.5", "--elastic", "winkler"], "--bushing-thickness"),
+    (GOOD + ["--eccentricity", "0.5", "--elastic", "fe", "--bushing-thickness", "1.5e-3", "--eye-outer-radius",
+             "0.017"], "--inlet"),
+    (GOOD + ["--eccentricity", "0.5", "--pressure-viscosity", "1"], "--pressure-viscosity"),
 ])
 def test_bad_input_is_one_line_exit_2(args, names):
     proc = run_cli("bearing", *args)
@@ -118,3 +129,32 @@ def test_stribeck_writes_netcdf_and_png(tempdir):
         assert ds.friction_coefficient.attrs["units"] == "1"
         assert np.all(np.isfinite(ds.friction_coefficient))
     assert (tempdir / "stribeck.png").stat().st_size > 10_000
+
+
+@pytest.mark.serial
+def test_oil_grade_and_temperature_give_the_viscosity(tempdir):
+    """--grade 5W-30 --temperature 90 reports the data sheet's viscosity at 90 C (solver.oil) and
+    carries the same load as --viscosity with that value (the film sees only mu: 1e-9)."""
+    from solver.oil import oil_from_grade
+
+    sheet = oil_from_grade("5W-30")
+    mu = sheet.kinematic_viscosity(90.0) * 1e-6 * sheet.density(90.0)
+    plain = _replace(GOOD, "--viscosity", None) + ["--eccentricity", "0.6", "--json", "--mesh-size", "0.2"]
+    by_grade = json.loads(run_cli("bearing", *plain, "--grade", "5W-30", "--temperature", "90").stdout)
+    by_value = json.loads(run_cli("bearing", *plain, "--viscosity", repr(mu)).stdout)
+    assert by_grade["viscosity_Pa_s"] == pytest.approx(mu, rel=1e-12) and by_grade["temperature_C"] == 90.0
+    assert by_grade["load_N"] == pytest.approx(by_value["load_N"], rel=1e-9)
+
+
+@pytest.mark.serial
+def test_elastic_bushing_reports_its_deformation(tempdir):
+    """--elastic winkler: the JSON has max_deformation_m, positive (the bushing opens under the film)
+    and equal to k p_max for the Winkler law with the bushing's default bronze (1e-6: the peak
+    pressure and the largest deformation sit at the same node of a smooth film)."""
+    args = GOOD + ["--eccentricity", "0.9", "--inlet", "none", "--elastic", "winkler", "--bushing-thickness", "1.5e-3",
+                   "--json", "--mesh-size", "0.15"]
+    report = json.loads(run_cli("bearing", *args).stdout)
+    t, E, nu = 1.5e-3, 115e9, 0.33
+    k = t * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
+    assert report["elastic"] == "winkler" and report["max_deformation_m"] > 0
+    assert report["max_deformation_m"] == pytest.approx(k * report["p_max_Pa"], rel=1e-6)

@@ -1,4 +1,4 @@
-"""Oil viscosity and density from data-sheet values (solver.film.oil) against independent references.
+"""Oil viscosity and density from data-sheet values (solver.oil) against independent references.
 
 References: the ASTM D341 equation written out here (not the module's helpers), a manufacturer's
 viscosity-temperature table, a manufacturer's density table, the SAE J300 grade ranges, and the
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from solver.errors import InputError
-from solver.film.oil import GRADES, OilData, oil_from_grade, walther_constants, walther_viscosity
+from solver.oil import GRADES, OilData, oil_from_grade, walther_constants, walther_viscosity
 
 
 @pytest.mark.parametrize("grade", sorted(GRADES))
