@@ -179,7 +179,14 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("gas", "intake_pressure_bar", "intake_pressure", 1.0, BAR, 0.0, unit="bar",
        doc="intake pressure (0-180 deg and start of compression), absolute"),
     _f("gas", "exhaust_pressure_bar", "exhaust_pressure", 1.1, BAR, 0.0, unit="bar",
-       doc="exhaust pressure (540-720 deg), absolute"),
+       doc="exhaust pressure (after the blowdown, to the valve overlap), absolute"),
+    _f("gas", "exhaust_opening_deg", "exhaust_opening", 490.0, DEG, 360.0, 720.0, unit="deg",
+       doc="exhaust valve opening (130 deg after firing TDC); from there the pressure falls smoothly to the "
+           "exhaust pressure (540 with blowdown and overlap 0: the seed's step model)"),
+    _f("gas", "blowdown_duration_deg", "blowdown_duration", 70.0, DEG, 0.0, 360.0, closed=True, unit="deg",
+       doc="crank angle over which the blowdown brings the pressure to the exhaust pressure"),
+    _f("gas", "valve_overlap_deg", "valve_overlap", 40.0, DEG, 0.0, 180.0, closed=True, unit="deg",
+       doc="valve overlap centred on 720 deg: the exhaust pressure passes smoothly to the intake pressure"),
     _f("gas", "crankcase_pressure_bar", "crankcase_pressure", 1.0, BAR, 0.0, unit="bar", closed=True,
        doc="crankcase pressure under the piston, absolute"),
     # [small_end]
@@ -354,6 +361,9 @@ class Gas:
     wiebe_m: float = _field("gas", "wiebe_m")
     intake_pressure: float = _field("gas", "intake_pressure")  # Pa, absolute
     exhaust_pressure: float = _field("gas", "exhaust_pressure")  # Pa, absolute
+    exhaust_opening: float = _field("gas", "exhaust_opening")  # rad
+    blowdown_duration: float = _field("gas", "blowdown_duration")  # rad
+    valve_overlap: float = _field("gas", "valve_overlap")  # rad
     crankcase_pressure: float = _field("gas", "crankcase_pressure")  # Pa, absolute
 
     def __post_init__(self) -> None:
@@ -367,11 +377,16 @@ class Gas:
         if self.model == "single-zone" and self.peak_pressure is None and self.imep is None:
             raise InputError("the single-zone model needs gas.peak_pressure_bar or gas.imep_bar")
         end = self.combustion_start + self.combustion_duration
-        if not end < 3.0 * math.pi:
+        if not end < self.exhaust_opening:
             raise out_of_range(
                 "gas.combustion_duration_deg", f"{self.combustion_duration / DEG:g}",
-                f"< {540.0 - self.combustion_start / DEG:g} (combustion must end before 540 deg)",
+                f"< {(self.exhaust_opening - self.combustion_start) / DEG:g} (combustion must end before the "
+                f"exhaust opens, gas.exhaust_opening_deg = {self.exhaust_opening / DEG:g})",
             )
+        if not self.exhaust_opening + self.blowdown_duration + self.valve_overlap / 2 <= 4.0 * math.pi:
+            raise out_of_range("gas.blowdown_duration_deg", f"{self.blowdown_duration / DEG:g}",
+                               f"<= {720.0 - self.exhaust_opening / DEG - self.valve_overlap / DEG / 2:g} (the blowdown "
+                               "ends before the valve overlap)")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

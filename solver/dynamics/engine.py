@@ -270,7 +270,9 @@ def engine_from_case(case: Case) -> EngineModel:
         pressure = gas_model.single_zone_model(
             geometry, polytropic_exponent=g.polytropic_exponent, intake_pressure=g.intake_pressure,
             exhaust_pressure=g.exhaust_pressure, combustion_start=g.combustion_start,
-            combustion_duration=g.combustion_duration, wiebe_a=g.wiebe_a, wiebe_m=g.wiebe_m, **targets,
+            combustion_duration=g.combustion_duration, wiebe_a=g.wiebe_a, wiebe_m=g.wiebe_m,
+            exhaust_opening=g.exhaust_opening, blowdown_duration=g.blowdown_duration, valve_overlap=g.valve_overlap,
+            **targets,
         )
     motion = load_speed_trace(e.speed_file) if e.speed_file is not None else CrankMotion(e.speed)
     return EngineModel(

@@ -7,8 +7,19 @@ Single-zone model (Heywood 1988, sec. 9.2.1 with the ratio of specific heats rep
 polytropic exponent n; Wiebe 1970)::
 
     intake     0   <= theta < pi      p = p_intake
-    closed     pi  <= theta < 3 pi    d(p V^n)/dtheta = (n - 1) V^(n-1) Q_tot dx_b/dtheta           (1)
-    exhaust    3pi <= theta < 4 pi    p = p_exhaust
+    closed     pi  <= theta < theta_e d(p V^n)/dtheta = (n - 1) V^(n-1) Q_tot dx_b/dtheta           (1)
+    exhaust    theta_e <= theta < 4 pi p = p_exhaust
+
+Gas exchange without jumps (``exhaust_opening`` theta_e, ``blowdown_duration`` D_b, ``valve_overlap``
+D_o; all zero-width with theta_e = 3 pi gives the step model above, the seed's)::
+
+    blowdown   theta_e <= theta < theta_e + D_b:  p = p_exhaust + (p_closed - p_exhaust) (1 - S(u)),
+               u = (theta - theta_e) / D_b, p_closed from (3) continued (combustion is over)
+    overlap    |theta - 4 pi| < D_o / 2 (mod 4 pi):  p = p_exhaust + (p_intake - p_exhaust) S(v),
+               v = (theta - 4 pi + D_o/2) / D_o
+    S(u) = 10 u^3 - 15 u^4 + 6 u^5  (S(0) = 0, S(1) = 1, S' and S'' zero at both ends)
+
+so the pressure and its derivative are continuous over the whole cycle.
 
     x_b = (1 - exp(-a u^(m+1))) / (1 - exp(-a)),  u = (theta - theta_s) / Delta_theta in [0, 1]      (2)
 
@@ -22,6 +33,9 @@ work of the closed cycle has the closed form (integration by parts of (3))::
 
     W = C0 (V_evo^(1-n) - V_ivc^(1-n)) / (1 - n) + Q_tot (1 - I_end V_evo^(1-n))
         + p_intake (V(pi) - V(0)) + p_exhaust (V(4 pi) - V(3 pi)),   C0 = p_intake V_ivc^n          (4)
+
+(with V_evo = V(theta_e); the blowdown and overlap pieces, linear in Q_tot too, are integrated by
+Gauss-Legendre quadrature on fine panels).
 
 ``IMEP = W / V_d`` (net, over 720 deg). ``Q_tot`` is set by a target IMEP (linear in (4)) or a target
 peak pressure (monotone in Q_tot, solved by Brent's method). The Wiebe function (2) is normalised so
@@ -172,6 +186,9 @@ class SingleZoneModel:
     wiebe_a: float = 5.0
     wiebe_m: float = 2.0
     heat_release: float = 0.0
+    exhaust_opening: float = 3.0 * math.pi  # rad, theta_e (absolute crank angle of the cycle)
+    blowdown_duration: float = 0.0  # rad, D_b (0: the pressure drops at theta_e)
+    valve_overlap: float = 0.0  # rad, D_o, centred on 4 pi (0: the pressure steps there)
 
     def __post_init__(self) -> None:
         n = self.polytropic_exponent
@@ -183,11 +200,18 @@ class SingleZoneModel:
         if not self.combustion_duration > 0.0:
             duration = math.degrees(self.combustion_duration)
             raise out_of_range("combustion_duration", f"{duration:g} deg", "> 0")
-        if not self.combustion_start + self.combustion_duration < 3.0 * math.pi:
+        if not 0.0 <= self.valve_overlap < math.pi:
+            raise out_of_range("valve_overlap", f"{math.degrees(self.valve_overlap):g} deg", "[0, 180)")
+        if not 0.0 <= self.blowdown_duration:
+            raise out_of_range("blowdown_duration", f"{math.degrees(self.blowdown_duration):g} deg", ">= 0")
+        if not 2.0 * math.pi < self.exhaust_opening <= CYCLE - self.valve_overlap / 2 - self.blowdown_duration:
+            raise out_of_range("exhaust_opening", f"{math.degrees(self.exhaust_opening):g} deg",
+                               "(360, 720 - overlap/2 - blowdown] deg")
+        if not self.combustion_start + self.combustion_duration < self.exhaust_opening:
             raise out_of_range(
                 "combustion_start + combustion_duration",
                 f"{math.degrees(self.combustion_start + self.combustion_duration):g} deg",
-                "< 540 deg (exhaust valve opening)",
+                f"< {math.degrees(self.exhaust_opening):g} deg (exhaust valve opening)",
             )
         if not (self.heat_release >= 0.0 and math.isfinite(self.heat_release)):
             raise out_of_range("heat_release", f"{self.heat_release:g} J", ">= 0")
@@ -225,30 +249,67 @@ class SingleZoneModel:
             theta, self.combustion_start, self.combustion_duration, self.wiebe_a, self.wiebe_m
         )
 
-    def pressure(self, theta: np.ndarray | float) -> np.ndarray:
-        """Pa, absolute cylinder pressure, eq. (3) in the closed part."""
-        if np.ndim(theta) == 0:  # scalar fast path (one call per force evaluation in the mechanism)
-            theta = float(theta) % CYCLE
-            if theta < math.pi:
-                return np.float64(self.intake_pressure)
-            if theta >= 3.0 * math.pi:
-                return np.float64(self.exhaust_pressure)
-        theta = np.mod(np.asarray(theta, dtype=float), CYCLE)
+    def _closed(self, theta) -> np.ndarray:
+        """p of eq. (3) (closed cylinder), also continued into the blowdown."""
         n, V = self.polytropic_exponent, self.geometry.volume
         c0 = self.intake_pressure * V(math.pi) ** n
-        closed = (c0 + (n - 1.0) * self.heat_release * self._heat_integral(theta)) / V(theta) ** n
-        closed_or_exhaust = np.where(theta < 3.0 * math.pi, closed, self.exhaust_pressure)
-        return np.where(theta < math.pi, self.intake_pressure, closed_or_exhaust)
+        return (c0 + (n - 1.0) * self.heat_release * self._heat_integral(theta)) / V(theta) ** n
+
+    def _closed_derivative(self, theta) -> np.ndarray:
+        n, V = self.polytropic_exponent, self.geometry.volume(theta)
+        return (n - 1.0) * self.heat_release * self._heat_integrand(theta) / V**n - n * self._closed(theta) * (
+            self.geometry.volume_derivative(theta) / V)
+
+    def _overlap_phase(self, theta: np.ndarray) -> np.ndarray:
+        """v of the valve overlap (module docstring), in [0, 1] inside it (theta in [0, 4 pi))."""
+        half = self.valve_overlap / 2
+        shifted = np.where(theta >= CYCLE - half, theta - CYCLE, theta)
+        return (shifted + half) / self.valve_overlap if self.valve_overlap > 0 else np.full_like(theta, 2.0)
+
+    def pressure(self, theta: np.ndarray | float) -> np.ndarray:
+        """Pa, absolute cylinder pressure over the cycle (module docstring)."""
+        if np.ndim(theta) == 0:  # scalar fast path (one call per force evaluation in the mechanism)
+            t = float(theta) % CYCLE
+            half = self.valve_overlap / 2
+            if half <= t < math.pi:
+                return np.float64(self.intake_pressure)
+            if self.exhaust_opening + self.blowdown_duration <= t < CYCLE - half:
+                return np.float64(self.exhaust_pressure)
+        scalar = np.ndim(theta) == 0
+        theta = np.mod(np.atleast_1d(np.asarray(theta, dtype=float)), CYCLE)
+        p_in, p_ex = self.intake_pressure, self.exhaust_pressure
+        half, evo, blowdown = self.valve_overlap / 2, self.exhaust_opening, self.blowdown_duration
+        p = np.where(theta < math.pi, p_in, p_ex).astype(float)
+        closed = (theta >= math.pi) & (theta < evo)
+        p[closed] = self._closed(theta[closed])
+        if blowdown > 0:
+            inside = (theta >= evo) & (theta < evo + blowdown)
+            u = (theta[inside] - evo) / blowdown
+            p[inside] = p_ex + (self._closed(theta[inside]) - p_ex) * (1.0 - _smoothstep(u))
+        if half > 0:
+            inside = (theta < half) | (theta >= CYCLE - half)
+            p[inside] = p_ex + (p_in - p_ex) * _smoothstep(self._overlap_phase(theta[inside]))
+        return np.float64(p[0]) if scalar else p
 
     def derivative(self, theta: np.ndarray | float) -> np.ndarray:
-        """Pa/rad, dp/dtheta (zero in intake and exhaust; the jumps at 3 pi and 4 pi are not included)."""
-        theta = np.mod(np.asarray(theta, dtype=float), CYCLE)
-        n, V = self.polytropic_exponent, self.geometry.volume(theta)
-        p = self.pressure(theta)
-        closed = (n - 1.0) * self.heat_release * self._heat_integrand(theta) / V**n - n * p * (
-            self.geometry.volume_derivative(theta) / V
-        )
-        return np.where((theta >= math.pi) & (theta < 3.0 * math.pi), closed, 0.0)
+        """Pa/rad, dp/dtheta (with zero-width blowdown or overlap the steps there are not included)."""
+        scalar = np.ndim(theta) == 0
+        theta = np.mod(np.atleast_1d(np.asarray(theta, dtype=float)), CYCLE)
+        p_in, p_ex = self.intake_pressure, self.exhaust_pressure
+        half, evo, blowdown = self.valve_overlap / 2, self.exhaust_opening, self.blowdown_duration
+        dp = np.zeros_like(theta)
+        closed = (theta >= math.pi) & (theta < evo)
+        dp[closed] = self._closed_derivative(theta[closed])
+        if blowdown > 0:
+            inside = (theta >= evo) & (theta < evo + blowdown)
+            t = theta[inside]
+            u = (t - evo) / blowdown
+            dp[inside] = (self._closed_derivative(t) * (1.0 - _smoothstep(u))
+                          - (self._closed(t) - p_ex) * _smoothstep_slope(u) / blowdown)
+        if half > 0:
+            inside = (theta < half) | (theta >= CYCLE - half)
+            dp[inside] = (p_in - p_ex) * _smoothstep_slope(self._overlap_phase(theta[inside])) / self.valve_overlap
+        return np.float64(dp[0]) if scalar else dp
 
     def work(self) -> float:
         """J, net indicated work per cycle, eq. (4) (closed integral of p dV)."""
@@ -256,15 +317,26 @@ class SingleZoneModel:
 
     def _work_motored(self) -> float:
         n, V = self.polytropic_exponent, self.geometry.volume
-        v_ivc, v_evo = V(math.pi), V(3.0 * math.pi)
+        half, evo, blowdown = self.valve_overlap / 2, self.exhaust_opening, self.blowdown_duration
+        v_ivc, v_evo = V(math.pi), V(evo)
         c0 = self.intake_pressure * v_ivc**n
         closed = c0 * (v_evo ** (1.0 - n) - v_ivc ** (1.0 - n)) / (1.0 - n)
-        gas_exchange = self.intake_pressure * (v_ivc - V(0.0)) + self.exhaust_pressure * (V(CYCLE) - v_evo)
-        return float(closed + gas_exchange)
+        gas_exchange = (self.intake_pressure * (v_ivc - V(half)) + self.exhaust_pressure * (V(CYCLE - half)
+                                                                                          - V(evo + blowdown)))
+        p_in, p_ex = self.intake_pressure, self.exhaust_pressure
+        pieces = _integral_p_dV(self.geometry, lambda t: p_ex * _smoothstep((t - evo) / blowdown)
+                                + c0 / V(t) ** n * (1.0 - _smoothstep((t - evo) / blowdown)), evo, evo + blowdown)
+        overlap = lambda t: p_ex + (p_in - p_ex) * _smoothstep((t - CYCLE + half) / self.valve_overlap)  # noqa: E731
+        pieces += _integral_p_dV(self.geometry, overlap, CYCLE - half, CYCLE + half)
+        return float(closed + gas_exchange + pieces)
 
     def _work_per_heat(self) -> float:
-        n = self.polytropic_exponent
-        return float(1.0 - self._heat_integral_end * self.geometry.volume(3.0 * math.pi) ** (1.0 - n))
+        n, V = self.polytropic_exponent, self.geometry.volume
+        evo, blowdown = self.exhaust_opening, self.blowdown_duration
+        closed = 1.0 - self._heat_integral_end * V(evo) ** (1.0 - n)
+        blow = _integral_p_dV(self.geometry, lambda t: (n - 1.0) * self._heat_integral_end / V(t) ** n
+                              * (1.0 - _smoothstep((t - evo) / blowdown)), evo, evo + blowdown)
+        return float(closed + blow)
 
     def imep(self) -> float:
         """Pa, net indicated mean effective pressure ``W / V_d``."""
@@ -283,6 +355,30 @@ class SingleZoneModel:
         if -best.fun >= values[k]:
             return float(-best.fun), float(best.x)
         return float(values[k]), float(grid[k])
+
+
+def _smoothstep(u):
+    """S(u) = 10 u^3 - 15 u^4 + 6 u^5 on [0, 1] (0 below, 1 above)."""
+    u = np.clip(u, 0.0, 1.0)
+    return u**3 * (10.0 - 15.0 * u + 6.0 * u**2)
+
+
+def _smoothstep_slope(u):
+    u = np.clip(u, 0.0, 1.0)
+    return 30.0 * u**2 * (1.0 - u) ** 2
+
+
+def _integral_p_dV(geometry: CylinderGeometry, pressure, start: float, end: float, panels: int = 400) -> float:
+    """integral of p dV = p dV/dtheta dtheta over [start, end] (6-point Gauss-Legendre on equal panels;
+    the integrands are smooth there: ~1e-14 relative)."""
+    if not end > start:
+        return 0.0
+    abscissae, weights = np.polynomial.legendre.leggauss(6)
+    nodes = np.linspace(start, end, panels + 1)
+    half = 0.5 * np.diff(nodes)
+    points = (0.5 * (nodes[1:] + nodes[:-1]))[:, None] + half[:, None] * abscissae[None, :]
+    values = pressure(points) * geometry.volume_derivative(np.mod(points, CYCLE))
+    return float(np.sum(half * (values @ weights)))
 
 
 def single_zone_model(
