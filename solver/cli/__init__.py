@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from mpi4py import MPI
 
 from solver import __version__
-from solver.errors import InputError
+from solver.errors import FilmNotConverged, InputError
 
 # command name -> (module, one-line help). Modules are imported lazily so that `--help` and
 # argument errors do not pay for importing dolfinx.
@@ -106,3 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if world.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2
+    except FilmNotConverged as err:  # the film could not be solved at the state asked for
+        if world.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 1

@@ -158,3 +158,17 @@ def test_elastic_bushing_reports_its_deformation(tempdir):
     k = t * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
     assert report["elastic"] == "winkler" and report["max_deformation_m"] > 0
     assert report["max_deformation_m"] == pytest.approx(k * report["p_max_Pa"], rel=1e-6)
+
+
+@pytest.mark.serial
+def test_a_film_that_cannot_be_solved_is_one_line_exit_1(tempdir):
+    """A rigid piezoviscous film beyond q = 1/alpha has no bounded pressure (tests/film/
+    test_piezoviscosity.py): the command says so in one line and exits 1, without a traceback."""
+    args = _replace(_replace(GOOD, "--viscosity", "0.1"), "--speed", "76000")
+    proc = run_cli("bearing", *args, "--eccentricity", "0.95", "--piezoviscosity", "barus",
+                   "--pressure-viscosity", "2e-8", "--mesh-size", "0.2")
+    # (on a machine's first run the film's forms are compiled: one INFO line says so)
+    lines = [line for line in proc.stderr.strip().splitlines() if not line.startswith("INFO ")]
+    assert proc.returncode == 1, proc.stderr
+    assert len(lines) == 1 and lines[0].startswith("error:") and "elastic bushing" in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr
