@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
-from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_from_grade
+from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -442,26 +442,7 @@ class Oil:
 
     def data(self) -> OilData | None:
         """The oil's data sheet (grade or the three values), or None when viscosity_Pa_s is used."""
-        sheet = (self.kinematic_viscosity_40C, self.kinematic_viscosity_100C, self.density_15C)
-        if self.grade is not None:
-            if any(v is not None for v in sheet):
-                raise InputError("give either oil.grade or the oil's data sheet (oil.kinematic_viscosity_40C_cSt, "
-                                 "..._100C_cSt, density_15C_kg_m3), not both")
-            return oil_from_grade(self.grade)
-        if all(v is None for v in sheet):
-            return None
-        if any(v is None for v in sheet):
-            raise InputError("the oil's data sheet needs oil.kinematic_viscosity_40C_cSt, oil.kinematic_viscosity_100C_cSt "
-                             "and oil.density_15C_kg_m3 together (allowed: all three, or none)")
-        try:
-            return OilData(*sheet)
-        except InputError as err:  # name the case's keys
-            message = str(err)
-            for name, key in (("kinematic_viscosity_40C", "kinematic_viscosity_40C_cSt"),
-                              ("kinematic_viscosity_100C", "kinematic_viscosity_100C_cSt"),
-                              ("density_15C", "density_15C_kg_m3")):
-                message = message.replace(f"{name} =", f"oil.{key} =").replace(f"{name} ", f"{key} ")
-            raise InputError(message) from None
+        return oil_data(self.grade, self.kinematic_viscosity_40C, self.kinematic_viscosity_100C, self.density_15C)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -45,7 +45,7 @@ import dataclasses
 
 import numpy as np
 
-from solver.errors import out_of_range
+from solver.errors import InputError, out_of_range
 
 KELVIN = 273.15  # K at 0 C
 WALTHER_OFFSET = 0.7  # mm^2/s, the 0.7 of Z = nu + 0.7
@@ -152,3 +152,29 @@ def oil_from_grade(grade: str) -> OilData:
     if key not in GRADES:
         raise out_of_range("oil grade", repr(grade), ", ".join(repr(g) for g in GRADES))
     return GRADES[key]
+
+
+#: the inputs of ``oil_data`` as its callers name them in their messages (a case's keys by default)
+CASE_NAMES = {"grade": "oil.grade", "kinematic_viscosity_40C": "oil.kinematic_viscosity_40C_cSt",
+              "kinematic_viscosity_100C": "oil.kinematic_viscosity_100C_cSt", "density_15C": "oil.density_15C_kg_m3"}
+
+
+def oil_data(grade: str | None, kinematic_viscosity_40C: float | None, kinematic_viscosity_100C: float | None,
+             density_15C: float | None, names: dict[str, str] = CASE_NAMES) -> OilData | None:
+    """The oil of a grade, or of the three data-sheet values (one kind, the sheet complete), or None
+    when neither is given. Errors name the inputs as ``names`` does (a case's keys, a command's flags)."""
+    sheet = (kinematic_viscosity_40C, kinematic_viscosity_100C, density_15C)
+    n40, n100, rho = names["kinematic_viscosity_40C"], names["kinematic_viscosity_100C"], names["density_15C"]
+    if grade is not None and any(v is not None for v in sheet):
+        raise InputError(f"give either {names['grade']} or the data sheet ({n40}, {n100}, {rho}), not both")
+    if grade is None and all(v is None for v in sheet):
+        return None
+    if grade is None and any(v is None for v in sheet):
+        raise InputError(f"the data sheet needs {n40}, {n100} and {rho} together (allowed: all three, or none)")
+    try:
+        return oil_from_grade(grade) if grade is not None else OilData(*sheet)
+    except InputError as err:
+        message = str(err).replace("oil grade", names["grade"])
+        for field in ("kinematic_viscosity_40C", "kinematic_viscosity_100C", "density_15C"):
+            message = message.replace(field, names[field])
+        raise InputError(message) from None

@@ -152,12 +152,12 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
                    default=1.5e-8, help="pressure-viscosity coefficient alpha [1/Pa] (default 1.5e-8)")
 
 
-def elastic_from_args(args, comm):
-    """(elastic, piezoviscosity) models of the parsed options (after _check_elastic)."""
+def elastic_from_args(args, surface, comm):
+    """(elastic, piezoviscosity) models of the parsed options (after _check_elastic); the bushing's
+    moduli are the surface's."""
     from solver.film.ehd import bushing_model  # dolfinx: after the arguments are checked
     from solver.film.viscosity import viscosity_law
 
-    surface = surface_from_args(args)
     elastic = bushing_model(args.elastic, radius=args.radius, width=args.width, bushing_thickness=args.bushing_thickness,
                             eye_outer_radius=args.eye_outer_radius, E_eye=args.E_housing, nu_eye=args.nu_housing,
                             E_bushing=surface.E_bushing, nu_bushing=surface.nu_bushing,
@@ -221,32 +221,20 @@ def _check(args) -> None:
 def resolve_viscosity(args) -> None:
     """Set ``args.viscosity`` [Pa s] from --viscosity or from the oil's data (solver.oil), and
     ``args.temperature``: one kind of input, not both (the same rules as a case's [oil])."""
-    from solver.oil import OilData, oil_from_grade
+    from solver.oil import oil_data
 
-    sheet = (args.nu40, args.nu100, args.density)
-    given = args.grade is not None or any(v is not None for v in sheet)
+    given = args.grade is not None or any(v is not None for v in (args.nu40, args.nu100, args.density))
     if args.viscosity is not None:
         if given or args.temperature is not None:
             raise InputError("--viscosity with the oil's data (--grade, --kinematic-viscosity-*, --density, "
                              "--temperature) (allowed: one of the two)")
         return
-    if not given:
+    flags = {"grade": "--grade", "kinematic_viscosity_40C": "--kinematic-viscosity-40C",
+             "kinematic_viscosity_100C": "--kinematic-viscosity-100C", "density_15C": "--density"}
+    oil = oil_data(args.grade, args.nu40, args.nu100, args.density, names=flags)
+    if oil is None:
         raise InputError("no viscosity (allowed: --viscosity, --grade, or --kinematic-viscosity-40C with "
                          "--kinematic-viscosity-100C and --density)")
-    if args.grade is not None and any(v is not None for v in sheet):
-        raise InputError("--grade with --kinematic-viscosity-*/--density (allowed: one of the two)")
-    if args.grade is None and any(v is None for v in sheet):
-        raise InputError("--kinematic-viscosity-40C, --kinematic-viscosity-100C and --density go together "
-                         "(allowed: all three)")
-    flags = {"kinematic_viscosity_40C": "--kinematic-viscosity-40C", "kinematic_viscosity_100C":
-             "--kinematic-viscosity-100C", "density_15C": "--density", "oil grade": "--grade"}
-    try:
-        oil = oil_from_grade(args.grade) if args.grade is not None else OilData(*sheet)
-    except InputError as err:
-        message = str(err)
-        for name, flag in flags.items():
-            message = message.replace(name, flag)
-        raise InputError(message) from None
     args.temperature = 100.0 if args.temperature is None else args.temperature
     args.viscosity = float(oil.dynamic_viscosity(args.temperature))
 
@@ -275,7 +263,7 @@ def run(args, comm) -> int:
     rate = args.eccentricity_rate
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
-    elastic, piezoviscosity = elastic_from_args(args, comm)
+    elastic, piezoviscosity = elastic_from_args(args, surface, comm)
     model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size,
                       degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3, elastic=elastic,

@@ -71,10 +71,10 @@ class FilmJoint(ClearanceJoint):
         self._key: tuple | None = None
         self._result = None
         self.last_result = None
-        self._cache: dict[tuple, object] = {}
-        self._elastic = model.deformation_state() is not None
+        # key -> (FilmResult, the elastic unknowns of that solve or None)
+        self._cache: dict[tuple, tuple[object, np.ndarray | None]] = {}
+        self._elastic = model.elastic is not None
         self._commits = 0
-        self._deformations: dict[tuple, object] = {}  # key -> elastic unknowns of that solve
         self._last_key: tuple | None = None
         self.n_solves = self.n_jacobians = self.n_failures = 0
 
@@ -82,18 +82,22 @@ class FilmJoint(ClearanceJoint):
         key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
         return key + (float(t), self._commits) if self._elastic else key
 
-    def commit(self, t: float) -> None:
-        """Elastic bushing: the deformation of the last evaluated state, at time t, starts the next rate."""
-        if self._elastic and self._last_key in self._deformations:
-            self.model.commit_deformation(self._deformations[self._last_key], t)
-            self._commits += 1
+    def commit(self, t: float) -> np.ndarray | None:
+        """Elastic bushing: the deformation of the last evaluated state, at time t, starts the next rate;
+        returns that state's unknowns (solver.film.bearing.FilmModel.deformation_state), or None."""
+        if not self._elastic or self._last_key not in self._cache:
+            return None
+        state = self._cache[self._last_key][1]
+        self.model.commit_deformation(state, t)
+        self._commits += 1
+        return state
 
     def result_at(self, ecc, ecc_rate, omega_rel, t: float = 0.0):
         """The FilmResult at a state (from the cache, or a new solve); None if the solve fails."""
         key = self._state_key(ecc, ecc_rate, omega_rel, t)
         if key not in self._cache:
             self.forces(ecc, ecc_rate, omega_rel, t)
-        return self._cache.get(key)
+        return self._cache[key][0] if key in self._cache else None
 
     def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
         key = self._state_key(ecc, ecc_rate, omega_rel, t)
@@ -105,7 +109,7 @@ class FilmJoint(ClearanceJoint):
         if not jacobian and key != self._key and key in self._cache:
             # a state solved before (e.g. an output state evaluated again at the start of the next
             # integration interval): the forces are known, no solve needed
-            r = self._cache[key]
+            r = self._cache[key][0]
             self.last_result = r
             return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
         try:
@@ -114,13 +118,9 @@ class FilmJoint(ClearanceJoint):
                                                 float(t) if self._elastic else None)
                 self._key = key
                 self.n_solves += 1
-                self._cache[key] = self._result
-                if self._elastic:
-                    self._deformations[key] = self.model.deformation_state()
+                self._cache[key] = (self._result, self.model.deformation_state())
                 if len(self._cache) > self.CACHE_SIZE:
-                    oldest = next(iter(self._cache))
-                    del self._cache[oldest]
-                    self._deformations.pop(oldest, None)
+                    del self._cache[next(iter(self._cache))]
             jac = None
             if jacobian:
                 jac = self.model.jacobian().matrix

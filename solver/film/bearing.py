@@ -355,7 +355,7 @@ class FilmModel:
         # the deformation's rate by implicit Euler from the last committed state (commit_deformation)
         self._W_previous = fem.Function(self.V) if elastic is not None else None
         self._inverse_step = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
-        self._history: tuple[float, np.ndarray, np.ndarray] | None = None  # (t_n [s], q_n, W_n)
+        self._history: tuple[float, np.ndarray] | None = None  # (t_n [s], coupled unknowns x_n)
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
         # the flow floor of the elastic film: a quarter of the roughness (h/sigma < 0.25 is asperity
@@ -410,8 +410,8 @@ class FilmModel:
             ufl.diff(k_theta, g.W), ufl.diff(k_z, g.W), ufl.diff(f, g.W), ufl.diff(f, g.dW_dtheta), P_c,
             ufl.diff(P_c, g.W))]
         coords = self._owned_coords
-        areas = self._operator.T_f @ np.ones(len(self._operator.cells))
-        shapes = self.elastic.shapes(np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, areas, self.scales)
+        shapes = self.elastic.shapes(np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R,
+                                     self._operator.nodal_areas, self.scales)
         n = len(coords)
         pressure_map = None
         if self.piezo is not None:
@@ -419,9 +419,8 @@ class FilmModel:
                 p = self._true_pressure(Q)
                 return p, self.piezo.ratio(p * self.scales.pressure)
         ehd = ElasticFilm(self._operator, self.P, self.W, self.solver.lower.x.array[:n].copy(), derivatives, shapes,
-                          self._operator.bc_dofs, options, pressure_map=pressure_map,
+                          options, pressure_map=pressure_map,
                           q_limit=None if self.piezo is None else self.piezo.q_limit / self.scales.pressure)
-        ehd.bind(self.solver.A, self.solver.rhs)
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
         return ehd
@@ -567,9 +566,9 @@ class FilmModel:
         if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
             raise InputError("an elastic bushing's deformation rate needs inlet 'none' or 'hole' (allowed with "
                              "'max-gap': quasi-static solves only)")
-        q = state[self._ehd.n :]
-        self._history = (time_s, state.copy(), self._ehd.Phi @ q)
-        self._W_previous.x.array[: len(self._history[2])] = self._history[2]
+        n = self._ehd.n
+        self._history = (time_s, state.copy())
+        self._W_previous.x.array[:n] = self._ehd.Phi @ state[n:]
 
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
         """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
@@ -705,6 +704,7 @@ class FilmModel:
     #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
     RATE_CONTINUATION = 2.0
     RATE_CONTINUATION_START = 1e7
+    RATE_CONTINUATION_SOLVES = 40  # at most, before the target (quasi-static: 1/dt = 0)
 
     def _solve_elastic(self) -> int:
         """The coupled solve at the current constants (solver.film.ehd). The warm start is the last
@@ -724,21 +724,21 @@ class FilmModel:
         n, target = ehd.n, float(self._inverse_step.value)
         self.P.x.array[:n] = self._history[1][:n]
         ehd.q = self._history[1][n:].copy()
-        start = max(target, self.RATE_CONTINUATION_START / self.scales.omega_ref)
-        for inverse_step in [*start * self.RATE_CONTINUATION ** -np.arange(0, 40), 0.0]:
-            if inverse_step < target * (1 + 1e-12):
-                inverse_step = target
+        path, value = [], self.RATE_CONTINUATION_START / self.scales.omega_ref
+        while value > target * (1 + 1e-12) and len(path) < self.RATE_CONTINUATION_SOLVES:
+            path.append(value)
+            value /= self.RATE_CONTINUATION
+        for inverse_step in [*path, target]:
             self._inverse_step.value = inverse_step
             try:
                 iterations += ehd.solve()
             except FilmNotConverged as again:
                 self._inverse_step.value = target
+                dt = 1 / (inverse_step * self.scales.omega_ref) if inverse_step > 0 else math.inf
                 raise FilmNotConverged(f"elastic film solve did not converge (also continued from the last "
-                                       f"accepted state, to dt = {1 / (inverse_step * self.scales.omega_ref):.3g} s)",
+                                       f"accepted state, to dt = {dt:.3g} s)",
                                        again.reason, iterations + again.iterations) from None
-            if inverse_step == target:
-                return iterations
-        raise AssertionError("unreachable: the continuation ends at the target")
+        return iterations
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
@@ -747,7 +747,7 @@ class FilmModel:
         coords, n = self._owned_coords, len(self._owned_coords)
         eps = np.array([float(self.params.eps_x.value), float(self.params.eps_y.value)])
         W = self.W.x.array[:n]
-        H = 1.0 - coords[:, :2] @ eps + W
+        H = self._ehd.rigid_gap + W  # the rigid gap of this state, set by _solve_elastic
         at_nodes = float(np.min(H))
         if not np.any(eps):
             return at_nodes * self.bearing.clearance

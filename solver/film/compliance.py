@@ -225,8 +225,11 @@ class Compliance:
         ``G ~ Psi diag(lam) Psi^T``."""
         if not 1 <= m <= self.size:
             raise out_of_range("number of compliance modes", m, f"[1, {self.size}]")
-        lam, Psi = np.linalg.eigh(0.5 * (self.matrix + self.matrix.T))
-        return Psi[:, ::-1][:, :m], lam[::-1][:m]
+        if "_eigenpairs" not in self.__dict__:  # one decomposition per compliance (frozen: set once here)
+            lam, Psi = np.linalg.eigh(0.5 * (self.matrix + self.matrix.T))
+            object.__setattr__(self, "_eigenpairs", (Psi[:, ::-1], lam[::-1]))
+        Psi, lam = self._eigenpairs
+        return Psi[:, :m], lam[:m]
 
     def truncation_error(self, m: int, loads: np.ndarray) -> np.ndarray | float:
         """Relative error of the displacement with m modes, ``max|G f - G_m f| / max|G f|``.

@@ -16,7 +16,8 @@ with F the nodal forces of the film pressure (lumped areas a_i) and of the asper
 * ``WinklerLayer``: a thin elastic layer on a rigid housing, ``w = k (p + p_c)`` node by node with
   ``k = t (1 + nu)(1 - 2 nu) / (E (1 - nu))``: Phi = I, g_i = k p_ref / (c a_i).
 
-Pressure and deformation are solved together by one SNES VI (``vinewtonrsls``, P >= P_cav, q free) on::
+Pressure and deformation are solved together by one SNES VI (P >= P_cav, q free; ``vinewtonrsls``, with
+a semismooth start when it fails from far: ELASTIC_OPTIONS, FAR_OPTIONS) on::
 
     R_P(P, q) = A(H) P + l(H) = 0          the rigid film's Reynolds residual, H from q
     R_q(P, q) = q - g * Phi^T F(P, H) = 0
@@ -35,8 +36,8 @@ engine loads (DESIGN 7); Newton on the coupled system does not. The matrix keeps
 pattern (with dense borders for the modes), so ``FixedPatternLU`` refactorises it numerically only,
 and the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
-Serial, P1 (the tensors' assumptions). The deformation is quasi-static: its rate is not in the
-squeeze term.
+Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
+coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above include it.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ from dolfinx import fem
 
 from solver.errors import FilmNotConverged, out_of_range
 from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU
+from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads, winkler_coefficient
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
@@ -97,8 +99,7 @@ class WinklerLayer:
     @property
     def coefficient(self) -> float:
         """k = t (1 + nu)(1 - 2 nu) / (E (1 - nu)) [m/Pa]: laterally constrained compression of the layer."""
-        nu = self.nu
-        return self.thickness * (1 + nu) * (1 - 2 * nu) / (self.E * (1 - nu))
+        return winkler_coefficient(self.thickness, self.E, self.nu)
 
     def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
         """(Phi, g) at the film's nodes (theta [rad], z [m], lumped areas / R^2)."""
@@ -130,7 +131,6 @@ class ElasticFilm:
         lower: the pressure's lower bounds per dof (P_cav, or the Dirichlet value where lower).
         derivatives: UFL expressions (dk_theta/dW, dk_z/dW, df/dW, df/dW', P_c, dP_c/dW).
         shapes: (Phi, g) at the film's dofs.
-        bc_dofs: Dirichlet dofs of the pressure.
         options: PETSc options over solver.film.cavitation.DEFAULT_OPTIONS.
         pressure_map: with piezoviscosity P is the reduced pressure: ``pressure_map(P) -> (p, dp/dP)``
             gives the true pressure that loads the bushing (solver.film.viscosity); q_limit: the
@@ -138,7 +138,7 @@ class ElasticFilm:
     """
 
     def __init__(self, operator: MidpointOperator, P: fem.Function, W: fem.Function, lower: np.ndarray,
-                 derivatives, shapes, bc_dofs: np.ndarray, options: dict | None = None, pressure_map=None,
+                 derivatives, shapes, options: dict | None = None, pressure_map=None,
                  q_limit: float | None = None):
         self.op, self.P, self.W = operator, P, W
         self.pressure_map, self.q_limit = pressure_map, q_limit
@@ -151,16 +151,15 @@ class ElasticFilm:
         self.n, self.m = n, m
         cells = op.cells
         c3 = np.repeat(cells, 3)
-        self.areas = op.T_f @ np.ones(len(cells))  # lumped nodal areas a_i (/ R^2)
+        self.areas = op.nodal_areas  # lumped nodal areas a_i (/ R^2)
         average = scipy.sparse.csr_matrix((np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())),
                                           shape=(len(cells), n))  # midpoint value of a P1 field
         slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
         self.average_Phi = (average @ self.Phi).tocsr()  # dW_K/dq
         self.slope_Phi = (slope @ self.Phi).tocsr()  # dW'_K/dq
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
-        self.bc_dofs = bc_dofs
         self.interior = np.ones(n)
-        self.interior[bc_dofs] = 0.0
+        self.interior[op.bc_dofs] = 0.0
         self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
         self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
@@ -200,7 +199,7 @@ class ElasticFilm:
             pc.setPythonContext(context)
         self.q = np.zeros(m)
         self.rigid_gap = np.ones(n)  # H_rigid at the dofs of the state being solved (set by the FilmModel)
-        self._state: np.ndarray | None = None  # the x of the cached evaluation
+        self._state: np.ndarray | None = None  # the x of the cached evaluation (and its residual, _r)
         self.iterations = 0
 
     def _snes(self, options: dict) -> PETSc.SNES:
@@ -227,14 +226,16 @@ class ElasticFilm:
         self.P.x.array[:n] = P
         self.W.x.array[:] = self.Phi @ q
         op = self.op
-        op.assemble(self._A_P, self._l_P)
+        op.evaluate()
+        self._A = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))  # A(H), dR_P/dP
         self.k = self.expression.eval(op.cells)  # (cell, 6) at the midpoints
-        R_P = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n)) @ P + op.source
+        R_P = self._A @ P + op.source
         p, self.slope = (P, None) if self.pressure_map is None else self.pressure_map(P)
         F = self.areas * p + self.to_nodes @ self.k[:, 4]
         R_q = q - self.gains * (self.Phi.T @ F)
         self._state = x.copy()
-        return np.concatenate([R_P, R_q])
+        self._r = np.concatenate([R_P, R_q])
+        return self._r
 
     def _residual(self, snes, x, r) -> None:
         r.setArray(self.residual(x.getArray(readonly=True)))
@@ -260,11 +261,10 @@ class ElasticFilm:
         dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
         dslope = scipy.sparse.csr_matrix((np.repeat(k[:, 3] * op.weight / 3.0, 3), (rows, cols)), shape=(n, n_cells))
         J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)
-        J_PP = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))
         contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
         J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
         J_qP = self.J_qP if self.slope is None else self.J_qP @ scipy.sparse.diags(self.slope)
-        return scipy.sparse.bmat([[J_PP, J_Pq], [J_qP, J_qq]], format="csr")
+        return scipy.sparse.bmat([[self._A, J_Pq], [J_qP, J_qq]], format="csr")
 
     def _scatter(self, J: scipy.sparse.csr_matrix) -> np.ndarray:
         """J's values in the fixed pattern (zeros where J has no entry)."""
@@ -286,8 +286,6 @@ class ElasticFilm:
         most MAX_GAP_CLOSURE of the gap where it is open wider than the flow floor's scale (so the iterates
         do not jump across the contact), and with piezoviscosity at most half the way from the reduced
         pressure to its bound."""
-        if len(step) != self.N:  # a reduced-space step (vinewtonrsls): not limited
-            return 1.0
         dW = -(self.Phi @ step[self.n :])
         largest = float(np.max(np.abs(dW), initial=0.0))
         factor = min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
@@ -304,10 +302,6 @@ class ElasticFilm:
         return factor
 
     # -- solve ----------------------------------------------------------------------------------
-    def bind(self, A: PETSc.Mat, l: PETSc.Vec) -> None:
-        """The PETSc matrix and vector the operator fills (the rigid solver's, unused otherwise)."""
-        self._A_P, self._l_P = A, l
-
     def solve(self) -> int:
         """Solve the coupled VI from the last (P, q); returns the Newton iterations."""
         n = self.n
@@ -350,10 +344,9 @@ class ElasticFilm:
 
     # -- sensitivities --------------------------------------------------------------------------
     def inactive_set(self) -> PETSc.IS:
-        """The pressurised pressure dofs and every deformation unknown, at the last solution."""
-        x = self._state
-        r = self.residual(x) if x is not None else None
-        n = self.n
+        """The pressurised pressure dofs and every deformation unknown, at the last solution (the
+        state of the last residual evaluation, which ``solve`` leaves at the solution)."""
+        x, r, n = self._state, self._r, self.n
         scale = max(1.0, float(np.max(np.abs(r[:n]), initial=0.0)))
         active = (x[:n] <= self.lower + 1e-12 * max(1.0, float(np.max(np.abs(x[:n]))))) & (r[:n] > 1e-10 * scale)
         keep = np.concatenate([~active, np.ones(self.m, dtype=bool)])
@@ -445,8 +438,6 @@ def bushing_model(kind: str, *, radius: float, width: float, bushing_thickness: 
         return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
     if kind != "fe":
         raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
-    from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads  # noqa: PLC0415 - gmsh, 3D: fe only
-
     geometry = EyeGeometry(bore_radius=radius, width=width, bushing_thickness=bushing_thickness,
                            eye_outer_radius=eye_outer_radius, E_eye=E_eye, nu_eye=nu_eye, E_bushing=E_bushing,
                            nu_bushing=nu_bushing, shank_angle_deg=shank_angle_deg,

@@ -84,6 +84,7 @@ class MidpointOperator:
                                            shape=(n_dofs, n_cells))
         self.expression = fem.Expression(ufl.as_vector(list(coefficients) + list(integrals)), MIDPOINT)
         self.weight = weight  # |K|: the midpoint rule's weight of each cell
+        self.nodal_areas = self.T_f @ np.ones(n_cells)  # lumped: a third of each cell's area to its vertices
         # per cell: its dofs, the local matrices per unit coefficient and the basis functions'
         # circumferential slopes (the elastic film's Jacobian, solver.film.ehd, differentiates A P + l
         # with respect to the coefficients)
@@ -107,6 +108,14 @@ class MidpointOperator:
 
     def assemble(self, A: PETSc.Mat, rhs: PETSc.Vec) -> None:
         """A and the source (lifted, with -g on the Dirichlet rows) for the current constants."""
+        self.evaluate()
+        A.setValuesCSR(self.indptr, self.indices, self.values)
+        A.assemble()
+        rhs.setArray(self.source)
+
+    def evaluate(self) -> None:
+        """``values`` (A's, in its CSR layout) and ``source`` for the current constants, without PETSc
+        (the elastic film, solver.film.ehd, works on them directly)."""
         k = self.expression.eval(self.cells)  # (cell, 3 + integrals): k_theta, k_z, f, ... at the midpoints
         self.integrals = self.weight @ k[:, 3:]
         values = self.T_theta @ k[:, 0] + self.T_z @ k[:, 1]
@@ -117,7 +126,4 @@ class MidpointOperator:
         values[self.constrained] = 0.0
         values[self.bc_diagonal] = 1.0
         source[self.bc_dofs] = -self.bc_values[self.bc_dofs]
-        A.setValuesCSR(self.indptr, self.indices, values)
-        A.assemble()
-        rhs.setArray(source)
-        self.coefficients, self.values, self.source = k, values, source  # of this state, for solver.film.ehd
+        self.values, self.source = values, source

@@ -93,6 +93,9 @@ class _Run:
         self.steps = 0  # accepted integrator steps so far
         self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
         self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
+        # the elastic unknowns at each output state of the last integrated cycle (None: rigid), for
+        # write_fields to re-solve the film with the run's deformation history
+        self.committed: list[np.ndarray | None] = []
 
     # -- integration ------------------------------------------------------------------------------
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
@@ -112,7 +115,7 @@ class _Run:
         # Every output angle is a step end: the cubic dense output is fine for positions but not for the
         # relative velocity of a stiff joint, and the film force depends on that velocity.
         q, t = q0, t0
-        self.committed = []  # the elastic unknowns at each output state (None: rigid), for write_fields
+        self.committed = []
         row, qd = self._state_outputs(t0, q0, qd0)
         self._commit(t0)
         rows = [row]
@@ -156,8 +159,7 @@ class _Run:
     def _commit(self, t: float) -> None:
         """An accepted output state: an elastic bushing's deformation there starts the next rate."""
         if self.model is not None and hasattr(self.joint, "commit"):
-            self.joint.commit(t)
-            self.committed.append(self.model.deformation_state())
+            self.committed.append(self.joint.commit(t))
 
     def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
@@ -253,7 +255,7 @@ class _Run:
         cols = cycle.columns
         angles = cols["crank_angle"]
 
-        committed = getattr(self, "committed", [])
+        committed = self.committed
 
         def solve_at(k: int) -> None:
             kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
