@@ -36,6 +36,7 @@ replaces the newest entry of the backward-difference history, the usual projecte
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 import time
 
 import numpy as np
@@ -502,6 +503,7 @@ def integrate(
     jacobian: np.ndarray | None = None,
     interpolant: object | None = None,
     accelerations: bool = True,
+    on_step: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Integrate the mechanism from (q0, qd0) over t_span with error control.
 
@@ -532,6 +534,10 @@ def integrate(
             velocity can be far off, and costs Newton and VI iterations).
         accelerations: False skips qdd and lambda at the outputs (NaN in the Trajectory): a force
             evaluation less per output for a caller that evaluates its outputs itself.
+        on_step: called with the time after every accepted step, before anything else is evaluated
+            (the last force evaluation was then the step's last stage, at that time): a force element
+            with history (an elastic bushing's deformation) commits its state there; a rejected step
+            never calls it.
 
     Returns:
         The :class:`Trajectory`.
@@ -599,6 +605,8 @@ def integrate(
         if solver.status == "failed":
             raise IntegrationError(f"{method} failed at t = {solver.t:.6g} s: {message}")
         n_steps += 1
+        if on_step is not None:
+            on_step(solver.t)
         if pending is not None and pending.size and pending[0] <= solver.t:
             dense = solver.dense_output()
             inside = pending <= solver.t

@@ -355,7 +355,9 @@ class FilmModel:
         # the deformation's rate by implicit Euler from the last committed state (commit_deformation)
         self._W_previous = fem.Function(self.V) if elastic is not None else None
         self._inverse_step = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
-        self._history: tuple[float, np.ndarray] | None = None  # (t_n [s], coupled unknowns x_n)
+        # the last committed states, oldest first: (t_n [s], coupled unknowns x_n)
+        self._history: list[tuple[float, np.ndarray]] = []
+        self._start: tuple[float, np.ndarray] | None = None  # the one the current solve's rate starts from
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
         # the flow floor of the elastic film: a quarter of the roughness (h/sigma < 0.25 is asperity
@@ -560,15 +562,26 @@ class FilmModel:
 
     def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
         """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate
-        (and the start of a solve that fails from the last one)."""
+        for solves after ``time_s`` (and the start of a solve that fails from the last one). Committed
+        states at or after ``time_s`` are dropped (a history replayed from an earlier time)."""
         if self._ehd is None:
             return
         if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
             raise InputError("an elastic bushing's deformation rate needs inlet 'none' or 'hole' (allowed with "
                              "'max-gap': quasi-static solves only)")
-        n = self._ehd.n
-        self._history = (time_s, state.copy())
-        self._W_previous.x.array[:n] = self._ehd.Phi @ state[n:]
+        earlier = [entry for entry in self._history if entry[0] < time_s]
+        self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
+
+    #: committed states kept: a solve at the time of the last commit takes its rate from the one before
+    HISTORY = 2
+
+    def _rate_start(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
+        """The committed state a solve at ``time_s`` takes its deformation rate from: the latest one
+        strictly before ``time_s`` (None: quasi-static)."""
+        if time_s is None:
+            return None
+        earlier = [entry for entry in self._history if entry[0] < time_s]
+        return earlier[-1] if earlier else None
 
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
         """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
@@ -624,16 +637,21 @@ class FilmModel:
     def solve(self, kin: Kinematics, time_s: float | None = None) -> FilmResult:
         """Solve the film for the given kinematics (warm start from the last pressure).
 
-        With an elastic bushing, ``time_s`` [s] after the last ``commit_deformation`` puts the
-        deformation's rate (implicit Euler from the committed state) in the squeeze term; without it
-        (or before a commit) the deformation is quasi-static.
+        With an elastic bushing, ``time_s`` [s] puts the deformation's rate in the squeeze term:
+        implicit Euler from the latest state committed (``commit_deformation``) before ``time_s``, so
+        that a state solved again at the time of the last commit keeps its rate; without ``time_s``
+        (or before any commit) the deformation is quasi-static.
         """
         start = time.perf_counter()
         stats = self.stats
         stats.solves += 1
         if self._ehd is not None:
-            dt = None if self._history is None or time_s is None else time_s - self._history[0]
-            self._inverse_step.value = 1.0 / (dt * self.scales.omega_ref) if dt is not None and dt > 0 else 0.0
+            self._start = self._rate_start(time_s)
+            if self._start is None:
+                self._inverse_step.value = 0.0
+            else:
+                self._inverse_step.value = 1.0 / ((time_s - self._start[0]) * self.scales.omega_ref)
+                self._W_previous.x.array[: self._ehd.n] = self._ehd.Phi @ self._start[1][self._ehd.n:]
         try:
             result = self._solve(kin, start)
         except FilmNotConverged as err:
@@ -715,15 +733,15 @@ class FilmModel:
         try:
             return ehd.solve()
         except FilmNotConverged as err:
-            if self._history is None:
+            if self._start is None:
                 raise
             iterations = err.iterations
         # From the last accepted state, continued in the deformation's rate: with a short step (a large
         # 1/dt) the deformation stays near the accepted one and the solve is easy; 1/dt is then brought
         # down to this step's in factors of RATE_CONTINUATION, each solve starting from the one before.
         n, target = ehd.n, float(self._inverse_step.value)
-        self.P.x.array[:n] = self._history[1][:n]
-        ehd.q = self._history[1][n:].copy()
+        self.P.x.array[:n] = self._start[1][:n]
+        ehd.q = self._start[1][n:].copy()
         path, value = [], self.RATE_CONTINUATION_START / self.scales.omega_ref
         while value > target * (1 + 1e-12) and len(path) < self.RATE_CONTINUATION_SOLVES:
             path.append(value)

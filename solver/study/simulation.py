@@ -126,7 +126,8 @@ class _Run:
                 tr = integrate(self.em.mechanism, q, qd, (t, t_end), method="ESDIRK32", rtol=self.case.solver.rtol,
                                atol=self.atol, alpha=self.omega, beta=self.omega, t_eval=np.array([t_end]),
                                first_step=step, assemble_initial_state=False, jacobian_reuse=True,
-                               jacobian=jacobian, interpolant=interpolant, accelerations=False)
+                               jacobian=jacobian, interpolant=interpolant, accelerations=False,
+                               on_step=self._step_accepted)
             except IntegrationError as err:
                 raise SimulationError(f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
                                       f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}") from None
@@ -155,6 +156,12 @@ class _Run:
                           film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds)
             timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
         return CycleOutput(columns, float(np.nanmin(h_min)), timing), (t, q, qd)
+
+    def _step_accepted(self, t: float) -> None:
+        """An accepted integrator step: an elastic bushing's deformation at its end starts the rate of
+        the next step (implicit Euler over the step, not over the output interval)."""
+        if self.model is not None and hasattr(self.joint, "commit"):
+            self.joint.commit(t)
 
     def _commit(self, t: float) -> None:
         """An accepted output state: an elastic bushing's deformation there starts the next rate."""

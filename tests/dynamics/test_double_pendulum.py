@@ -167,3 +167,28 @@ def test_simplified_newton_with_kept_jacobian_gives_the_same_solution_with_fewer
     assert kept.n_jacobian_evaluations <= full.n_jacobian_evaluations / 2
     assert kept.n_steps <= 1.1 * full.n_steps
     assert kept.jacobian is not None and kept.jacobian.shape == (2 * kept.q.shape[1],) * 2
+
+
+def test_on_step_is_called_once_per_accepted_step_after_its_last_stage():
+    """``integrate(on_step=...)``, where a joint with history commits its state: called once per
+    accepted step (the Trajectory's n_steps, counted independently), never for a rejected one, at
+    strictly increasing times ending at t_end, and each time right after a force evaluation at that very
+    time (the step's last stage, c = 1), so that the joint's last evaluated state is the step's end.
+    The stiff elbow (1e10 N/m) and a first step far too long make the integrator reject steps."""
+
+    class Recording(LinearClearanceJoint):
+        def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+            evaluations.append(t)
+            return super().forces(ecc, ecc_rate, omega_rel, t, jacobian)
+
+    evaluations: list[float] = []
+    calls: list[tuple[float, float]] = []  # (time of the call, time of the last force evaluation)
+    q0, qd0 = initial_state(-math.pi / 2 + 0.6, -math.pi / 2 + 0.3)
+    t_end = 0.2
+    run = integrate(double_pendulum(Recording(1e10, 1e6)), q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=1e-6,
+                    atol=1e-8, first_step=0.1, on_step=lambda t: calls.append((t, evaluations[-1])))
+    assert run.n_rejected > 0
+    assert len(calls) == run.n_steps
+    times = np.array([c[0] for c in calls])
+    assert np.all(np.diff(times) > 0) and times[-1] == t_end
+    assert all(t == last for t, last in calls)

@@ -180,6 +180,32 @@ def test_deformation_rate_is_implicit_euler_from_the_committed_state(film_differ
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * scale, (row, J[row], J_fd[row])
 
 
+@pytest.mark.serial
+def test_a_state_solved_again_at_its_commit_time_keeps_its_rate():
+    """The integrator commits the state at the end of every accepted step and the next step (or the
+    outputs) may solve that same state again at the same time: the rate must then come from the commit
+    before (implicit Euler over the same step), giving the committed solution back (VI tolerance, 1e-8
+    relative), and not the quasi-static one (which differs by the squeeze of the deforming bushing:
+    more than 1 % here). Committing at an earlier time drops the later commits (a replayed history).
+    """
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    kin = lambda eps: Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0)  # noqa: E731
+    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)) as model:
+        model.solve(kin(0.8))
+        lighter = model.deformation_state()
+        quasi_static = model.solve(kin(0.9)).load
+        model.commit_deformation(lighter, 0.0)
+        stepped = model.solve(kin(0.9), 1e-5)
+        assert abs(stepped.load - quasi_static) > 1e-2 * quasi_static  # the rate matters at this step
+        model.commit_deformation(model.deformation_state(), 1e-5)
+        assert model.solve(kin(0.9), 1e-5).load == pytest.approx(stepped.load, rel=1e-8)
+        # replayed from 0: the commit at 1e-5 is gone, a solve at 1e-5 steps from the state at 0 again
+        model.commit_deformation(lighter, 0.0)
+        model.solve(kin(0.95), 1e-5)
+        model.commit_deformation(lighter, 0.0)
+        assert model.solve(kin(0.9), 1e-5).load == pytest.approx(stepped.load, rel=1e-8)
+
+
 @pytest.fixture(scope="module")
 def coarse_eye(tmp_path_factory):
     """A coarse finite-element compliance of the reference eye (36 x 3 loads, 0.6 R elements: seconds)."""
