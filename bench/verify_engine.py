@@ -1,9 +1,9 @@
 """Verification study of the coupled engine (too long for CI; its table goes into the README).
 
-    .venv/bin/python3 bench/verify_engine.py [--base-mesh H] [--base-step DEG] [--base-rtol R]
-        [--max-cycles N] [--only VARIANT ...] [--keep]
+    .venv/bin/python3 bench/verify_engine.py [--case DIR] [--base-mesh H] [--base-step DEG]
+        [--base-rtol R] [--max-cycles N] [--only VARIANT ...] [--keep]
 
-Runs the reference case with the mixed finite-element film at a base resolution and refined
+Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's) with the mixed finite-element film at a base resolution and refined
 variants, and physical variants, each until periodic (at most 3 cycles), and prints:
 
 - periodicity: cycles needed and the last cycle-to-cycle change of min h_min;
@@ -18,6 +18,7 @@ variants, and physical variants, each until periodic (at most 3 cycles), and pri
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -30,15 +31,17 @@ from scipy.integrate import simpson
 from solver.study.simulation import run_case
 
 ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / "cases" / "reference-2000rpm"
 
 
-def make_case(work: Path, name: str, solver: dict, extra: str = "") -> Path:
+def make_case(work: Path, name: str, solver: dict, extra: str = "", source: Path = REFERENCE) -> Path:
+    """The source case's keys but its [solver] section (which must come last), under a new name."""
     case = work / name
     case.mkdir()
-    head = (ROOT / "cases" / "reference-2000rpm" / "case.toml").read_text().split("[solver]")[0]
+    head = (source / "case.toml").read_text().split("[solver]")[0]
+    head = re.sub(r'^name = ".*"$', f'name = "{name}"', head, count=1, flags=re.MULTILINE)
     body = "\n".join(f"{k} = {v}" for k, v in solver.items())
-    (case / "case.toml").write_text(head.replace('name = "reference-2000rpm"', f'name = "{name}"') + extra
-                                    + "\n[solver]\n" + body + "\n")
+    (case / "case.toml").write_text(head + extra + "\n[solver]\n" + body + "\n")
     return case
 
 
@@ -56,6 +59,7 @@ def metrics(path: Path) -> dict[str, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--case", type=Path, default=REFERENCE, help="the case whose keys the variants take")
     parser.add_argument("--base-mesh", type=float, default=0.15)
     parser.add_argument("--base-step", type=float, default=5.0)
     parser.add_argument("--base-rtol", type=float, default=1e-5)
@@ -80,7 +84,7 @@ def main() -> None:
         variants = {k: v for k, v in variants.items() if (k == "base" and not args.no_base) or k in args.only}
     for label, (solver, extra) in variants.items():
         name = label.replace(" ", "").replace("/", "-").replace(".", "p")
-        case = make_case(work, name, solver)
+        case = make_case(work, name, solver, source=args.case)
         if extra:  # sections must come before [solver]; rewrite the file with the extra section merged
             text = (case / "case.toml").read_text()
             section, body = extra.split("\n", 1)

@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "engine": ("solver.cli.engine", "the crank-rod-piston engine cycle with ideal joints"),
     "run": ("solver.cli.run", "one engine operating point with the lubricated small end (case directory)"),
     "batch": ("solver.cli.batch", "many operating points (case directories or a sweep file) across MPI ranks"),
+    "compare": ("solver.cli.compare", "finished runs side by side: a table and a plot over the crank angle"),
 }
 
 

@@ -1,0 +1,117 @@
+"""``python3 -m solver compare RUN RUN ...``: finished runs side by side, in one table and one plot.
+
+Each RUN is a case directory (its ``results/results.nc``) or a results file. Prints one row per run
+(or one JSON object with ``--json``): the cycle minimum of h_min, the maxima of p_max, of the asperity
+force and of the bushing's deformation, the cycle mean of the friction power. With ``--output PNG``
+rank 0 also writes the plot: h_min, p_max, asperity force and friction power over the crank angle, one
+line per run (e.g. the rigid and the elastic small end of the same engine).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from solver.errors import InputError
+from solver.study import io
+from solver.study.results import is_complete
+
+# (variable, label, scale to the plotted unit)
+PANELS = (("h_min", "h_min [um]", 1e6), ("p_max", "p_max [MPa]", 1e-6), ("F_asperity", "asperity force [N]", 1.0),
+          ("friction_power", "friction power [W]", 1.0))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the ``compare`` command."""
+    parser.add_argument("runs", nargs="+", metavar="RUN", help="case directory (with results/results.nc) or a "
+                                                               "results.nc file; at least one")
+    parser.add_argument("--output", type=Path, default=None, metavar="PNG", help="write the comparison plot here")
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+
+
+def results_path(run: str) -> Path:
+    """The results file of a RUN argument; InputError unless it is a finished run's."""
+    path = Path(run)
+    if path.is_dir():
+        path = path / "results" / "results.nc"
+    if not is_complete(path):
+        raise InputError(f"RUN = {run!r} is out of range (allowed: a case directory with a finished run's "
+                         "results/results.nc, or such a file)")
+    return path
+
+
+def _finite(values: np.ndarray, reduce) -> float:
+    values = np.asarray(values, dtype=float)
+    return float(reduce(values[np.isfinite(values)])) if np.any(np.isfinite(values)) else math.nan
+
+
+def summary(ds: xr.Dataset, label: str) -> dict:
+    """The row of one run (SI)."""
+    angle = ds.crank_angle.values
+    friction = ds.friction_power.values
+    mean = float(np.trapz(friction, angle) / (angle[-1] - angle[0])) if np.all(np.isfinite(friction)) else math.nan
+    deformation = ds["deformation_max"].values if "deformation_max" in ds else np.full(angle.size, np.nan)
+    return {"run": label, "elastic": str(ds.attrs.get("small_end.elastic", "none")),
+            "piezoviscosity": str(ds.attrs.get("oil.piezoviscosity", "none")),
+            "h_min_min_m": _finite(ds.h_min.values, np.min), "p_max_max_Pa": _finite(ds.p_max.values, np.max),
+            "F_asperity_max_N": _finite(ds.F_asperity.values, np.max), "friction_power_mean_W": mean,
+            "deformation_max_m": _finite(deformation, np.max)}
+
+
+def plot(datasets: dict[str, xr.Dataset], path: Path) -> None:
+    """One panel per PANELS variable over the crank angle, one line per run."""
+    fig, axes = io.subplots(len(PANELS), 1, figsize=(8, 9), sharex=True, constrained_layout=True)
+    for ax, (name, label, scale) in zip(axes, PANELS):
+        for run, ds in datasets.items():
+            ax.plot(ds.crank_angle.values, ds[name].values * scale, lw=1.2, label=run)
+        ax.set_ylabel(label)
+        for x in (0, 180, 360, 540, 720):
+            ax.axvline(x, color="0.85", lw=0.8, zorder=0)
+    axes[0].legend(fontsize=8)
+    axes[0].set_title("small end over the cycle, run by run", fontsize=9)
+    axes[-1].set_xlim(0, 720)
+    axes[-1].set_xticks(range(0, 721, 90))
+    axes[-1].set_xlabel("crank angle [deg] (360 = firing TDC)")
+    with io.atomic_path(path) as part:
+        fig.savefig(part, dpi=110, format="png")
+
+
+def run(args: argparse.Namespace, comm) -> int:
+    """Read the runs, print the table (or JSON), write the plot; exit status 0."""
+    paths = [results_path(r) for r in args.runs]
+    if args.output is not None and args.output.suffix.lower() != ".png":
+        raise InputError(f"--output = {str(args.output)!r} is out of range (allowed: a .png file)")
+    labels = []
+    for r, path in zip(args.runs, paths):
+        label = path.parent.parent.name if Path(r).is_dir() else path.stem
+        labels.append(label if label not in labels else f"{label} ({len(labels) + 1})")
+    datasets = {}
+    try:
+        for label, path in zip(labels, paths):
+            with xr.open_dataset(path) as ds:
+                datasets[label] = ds.load()
+        rows = [summary(ds, label) for label, ds in datasets.items()]
+        if comm.rank == 0:
+            if args.output is not None:
+                plot(datasets, args.output)
+            if args.json:
+                print(json.dumps({"runs": rows, "plot": str(args.output) if args.output else None}))
+            else:
+                print(f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} {'max F_asp':>10} "
+                      f"{'friction':>9} {'max w':>8}")
+                for row in rows:
+                    print(f"{row['run']:<28} {row['elastic']:>8} {row['piezoviscosity']:>8} "
+                          f"{row['h_min_min_m'] * 1e6:>8.3f} um {row['p_max_max_Pa'] / 1e6:>6.1f} MPa "
+                          f"{row['F_asperity_max_N']:>8.1f} N {row['friction_power_mean_W']:>7.3f} W "
+                          f"{row['deformation_max_m'] * 1e6:>5.2f} um")
+                if args.output is not None:
+                    print(f"plot: {args.output}")
+    finally:
+        for ds in datasets.values():
+            ds.close()
+    return 0
