@@ -222,7 +222,22 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("oil", "density_15C_kg_m3", "density_15C", None, 1.0, 700.0, 1200.0, unit="kg/m^3",
        doc="data sheet: density at 15 C"),
     _f("oil", "temperature_C", "temperature", 100.0, 1.0, -40.0, 250.0, closed=True, unit="C",
-       doc="film temperature, with grade or the data sheet: viscosity by ASTM D341 (Walther), density by linear expansion"),
+       doc="with grade or the data sheet: the film temperature (thermal = isothermal) or the supply "
+           "temperature (thermal = effective); viscosity by ASTM D341 (Walther), density by linear "
+           "expansion"),
+    FieldSpec("oil", "thermal", "thermal", str, "isothermal", choices=("isothermal", "effective"),
+              doc="film temperature: isothermal (temperature_C) or effective (from the heat balance of the "
+                  "cycle: (1 - heat_to_solids) x dissipated power = density x specific heat x side flow x "
+                  "rise above temperature_C, iterated with the cycles; needs grade or the data sheet)"),
+    _f("oil", "specific_heat_J_kgK", "specific_heat", 2000.0, 1.0, 500.0, 5000.0, unit="J/(kg K)",
+       doc="thermal = effective: the oil's specific heat (unused engine oil: 1880 at 20 C, 2050 at 60 C, "
+           "2220 at 100 C, Cengel & Boles' property tables; the default is a typical value, an assumption)"),
+    _f("oil", "heat_to_solids", "heat_to_solids", 0.2, 1.0, 0.0, 0.95, closed=True,
+       doc="thermal = effective: share of the dissipated power conducted away through pin and rod instead of "
+           "carried by the side flow (an assumption, not computed; 0: adiabatic film)"),
+    _f("oil", "thermal_tolerance", "thermal_tolerance", 1e-6, 1.0, 0.0, 0.1,
+       doc="thermal = effective: the run is thermally consistent when |heat into the oil - heat carried by "
+           "the side flow| <= this x heat into the oil"),
     FieldSpec("oil", "piezoviscosity", "piezoviscosity", str, "none", choices=("none", "barus", "roelands"),
               doc="pressure dependence of the viscosity: none, barus (mu0 exp(alpha p)) or roelands (with the "
                   "initial slope alpha); in the film and the friction. With a rigid bushing the pressure can "
@@ -425,7 +440,11 @@ class Oil:
     kinematic_viscosity_40C: float | None = None  # mm^2/s
     kinematic_viscosity_100C: float | None = None  # mm^2/s
     density_15C: float | None = None  # kg/m^3
-    temperature: float = _field("oil", "temperature")  # C
+    temperature: float = _field("oil", "temperature")  # C (the supply temperature when thermal = effective)
+    thermal: str = "isothermal"  # isothermal | effective (solver.study.thermal)
+    specific_heat: float = _field("oil", "specific_heat")  # J/(kg K)
+    heat_to_solids: float = _field("oil", "heat_to_solids")
+    thermal_tolerance: float = _field("oil", "thermal_tolerance")
     piezoviscosity: str = "none"
     pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
@@ -437,7 +456,12 @@ class Oil:
     def __post_init__(self) -> None:
         _check_section(self, "oil")
         data = self.data()
-        if data is not None:  # the film's viscosity at the film temperature (frozen: set once here)
+        if self.thermal == "effective" and data is None:
+            raise InputError('oil.thermal = "effective" needs the oil\'s viscosity against temperature: give '
+                             "oil.grade or the data sheet (oil.kinematic_viscosity_40C_cSt, ..._100C_cSt, "
+                             "density_15C_kg_m3), not a fixed oil.viscosity_Pa_s")
+        if data is not None:  # the film's viscosity at temperature_C (frozen: set once here; with thermal =
+            # effective the first cycle's, solver.study.simulation sets the film's own between cycles)
             object.__setattr__(self, "viscosity", float(data.dynamic_viscosity(self.temperature)))
 
     def data(self) -> OilData | None:

@@ -42,6 +42,9 @@ def run(args, comm) -> int:
             "p_max_max_Pa": summary.p_max_max, "F_asperity_max_N": summary.F_asperity_max,
             "friction_power_mean_W": summary.friction_power_mean, "cycles": summary.cycles,
             "periodic": summary.periodic, "wall_time_s": summary.wall_time,
+            "film_temperature_C": summary.film_temperature, "film_viscosity_Pa_s": summary.film_viscosity,
+            "thermal_closure": summary.thermal_closure, "heat_generated_W": summary.heat_generated,
+            "heat_to_oil_W": summary.heat_to_oil, "heat_carried_W": summary.heat_carried,
         }
         report = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in report.items()}
         if args.json:  # NaN (e.g. no film with --joint ideal) is null: strict JSON

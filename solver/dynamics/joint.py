@@ -145,6 +145,10 @@ class ShortBearingJoint(ClearanceJoint):
         F' = mu B^3 R integral_{g<0} g n / h^3 dtheta
         T_j = -mu R^3 B omega_rel integral dtheta / h + R/2 integral integral p dh/dtheta dtheta dz
         T_b = +mu R^3 B omega_rel integral dtheta / h + R/2 integral integral p dh/dtheta dtheta dz
+
+    The axial (Poiseuille) flow ``-h^3/(12 mu) dp/dz = -g z`` per unit length of circumference leaves
+    both edges of the pressurised arc, so the side flow (``side_flow``) is ``Q = -B R integral_{g<0} g
+    dtheta`` (>= 0; it does not depend on mu at given kinematics).
     """
 
     radius: float  # m
@@ -184,6 +188,16 @@ class ShortBearingJoint(ClearanceJoint):
         out = self._outputs(z)
         jac = _complex_step_jacobian(self._outputs, z) if jacobian else None
         return JointForces(out[:2].copy(), float(out[2]), float(out[3]), jac)
+
+    def side_flow(self, ecc, ecc_rate, omega_rel) -> float:
+        """The oil's volume flow out of both edges [m^3/s] (class docstring); NaN outside the clearance."""
+        ex, ey, rx, ry = (float(v) for v in (*ecc, *ecc_rate))
+        finite = all(math.isfinite(v) for v in (ex, ey, rx, ry, omega_rel))
+        if not finite or math.hypot(ex, ey) >= self.clearance:
+            return math.nan
+        th = self._theta
+        g = 0.5 * omega_rel * (ex * np.sin(th) - ey * np.cos(th)) - rx * np.cos(th) - ry * np.sin(th)
+        return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
 
 
 def hertz_line_stiffness(radius: float, clearance: float, E_journal: float, nu_journal: float, E_bushing: float,

@@ -575,7 +575,7 @@ class FilmModel:
     #: committed states kept: a solve at the time of the last commit takes its rate from the one before
     HISTORY = 2
 
-    def _rate_start(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
+    def rate_start(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
         """The committed state a solve at ``time_s`` takes its deformation rate from: the latest one
         strictly before ``time_s`` (None: quasi-static)."""
         if time_s is None:
@@ -646,7 +646,7 @@ class FilmModel:
         stats = self.stats
         stats.solves += 1
         if self._ehd is not None:
-            self._start = self._rate_start(time_s)
+            self._start = self.rate_start(time_s)
             if self._start is None:
                 self._inverse_step.value = 0.0
             else:

@@ -217,7 +217,8 @@ def _now() -> str:
 def _metrics(summary: Any) -> dict[str, Any]:
     out = {}
     for name in ("h_min_min", "p_max_max", "F_asperity_max", "friction_power_mean", "cycles", "periodic",
-                 "wall_time"):
+                 "wall_time", "film_temperature", "film_viscosity", "thermal_closure", "heat_generated",
+                 "heat_to_oil", "heat_carried"):
         value = getattr(summary, name, None)
         if isinstance(value, (bool, np.bool_)):
             out[name] = bool(value)

@@ -2,10 +2,11 @@
 
 ``results.nc`` has the dimension ``crank_angle`` (deg, 0-720, the last computed cycle) and the
 DESIGN 4 variables (names are an interface: add, do not rename), each with ``units`` and
-``long_name``; its attributes hold every case parameter as ``"section.key"`` in the case file's
-units, the solver version, the numerical settings, the wall time and ``status = "complete"`` (a
-results file without it is not a finished run). Files are written by rank 0 of the case
-communicator, under a temporary name and renamed into place.
+``long_name``; its scalar variables (``FILM_VARIABLES``) the film's temperature and viscosity in the
+last cycle and its heat balance (solver.study.thermal); its attributes hold every case parameter as
+``"section.key"`` in the case file's units, the solver version, the numerical settings, the wall time
+and ``status = "complete"`` (a results file without it is not a finished run). Files are written by
+rank 0 of the case communicator, under a temporary name and renamed into place.
 """
 
 from __future__ import annotations
@@ -60,10 +61,27 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "deformation_max": ("m", "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)"),
     "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
+    "side_flow": ("m3 s-1", "oil volume flow out of both bushing edges (film joints; NaN otherwise)"),
     "dissipated_power": ("W", "power dissipated in the joint (friction + squeeze)"),
     "input_power": ("W", "power of the crank driver and the gas on the mechanism"),
     "kinetic_energy": ("J", "kinetic energy of the mechanism"),
     "potential_energy": ("J", "gravitational potential energy of the mechanism"),
+}
+
+
+#: Scalars of the last cycle: name -> (units, long_name). Film temperature and viscosity are the case's with
+#: oil.thermal = "isothermal" (temperature NaN when the case gives viscosity_Pa_s), the effective ones
+#: with "effective"; the heat balance terms other than heat_generated are NaN when isothermal.
+FILM_VARIABLES: dict[str, tuple[str, str]] = {
+    "film_temperature": ("degC", "film (oil) temperature of the last cycle"),
+    "film_viscosity": ("Pa s", "dynamic viscosity of the oil at film_temperature, used in the last cycle"),
+    "film_density": ("kg m-3", "density of the oil at film_temperature"),
+    "heat_generated": ("W", "cycle mean of dissipated_power"),
+    "side_flow_mean": ("m3 s-1", "cycle mean of side_flow"),
+    "heat_to_oil": ("W", "heat into the oil, (1 - oil.heat_to_solids) x heat_generated"),
+    "heat_carried": ("W", ("heat carried out by the side flow, film_density c_p side_flow_mean "
+                           "(film_temperature - oil.temperature_C)")),
+    "thermal_closure": ("1", "|heat_to_oil - heat_carried| / heat_to_oil"),
 }
 
 
@@ -94,8 +112,14 @@ class RunSummary:
     F_asperity_max: float  # N, cycle maximum of the asperity contact force
     friction_power_mean: float  # W, cycle mean of the friction power
     cycles: int
-    periodic: bool
+    periodic: bool  # periodic (and, with oil.thermal = "effective", thermally consistent)
     wall_time: float  # s
+    film_temperature: float = math.nan  # C, in the last cycle (FILM_VARIABLES)
+    film_viscosity: float = math.nan  # Pa s, at film_temperature
+    thermal_closure: float = math.nan  # |heat_to_oil - heat_carried| / heat_to_oil (NaN: isothermal)
+    heat_generated: float = math.nan  # W, cycle mean of the dissipated power
+    heat_to_oil: float = math.nan  # W
+    heat_carried: float = math.nan  # W, by the side flow
 
 
 def attach_log(path: Path, comm: MPI.Comm) -> logging.Handler | None:
@@ -117,16 +141,19 @@ def detach_log(handler: logging.Handler | None) -> None:
         handler.close()
 
 
-def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=()) -> None:
-    """State at a cycle end, with the h_min history and the cycles' timing (atomic)."""
+def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=(), *,
+                     thermal: list[dict] | None = None) -> None:
+    """State at a cycle end, with the h_min history, the cycles' timing and the thermal iteration's
+    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal) (atomic)."""
     with io.atomic_path(path) as part:
         with open(part, "wb") as stream:
             np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history),
-                     timings=json.dumps(list(timings)))
+                     timings=json.dumps(list(timings)), thermal=json.dumps(thermal))
 
 
 def read_checkpoint(path: Path, fingerprint: str):
-    """(cycles done, t, q, qd, h_min history, timings) from a checkpoint of the same case, else None."""
+    """(cycles done, t, q, qd, h_min history, timings, thermal state or None) from a checkpoint of the same
+    case, else None."""
     if not path.is_file():
         return None
     try:
@@ -135,15 +162,17 @@ def read_checkpoint(path: Path, fingerprint: str):
                 log.info("checkpoint %s belongs to other case settings: starting afresh", path)
                 return None
             timings = json.loads(str(data["timings"])) if "timings" in data else []
+            thermal = json.loads(str(data["thermal"])) if "thermal" in data else None
             return (int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"]),
-                    timings)
+                    timings, thermal)
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
         return None
 
 
-def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict):
-    """The xarray Dataset of the data contract."""
+def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict,
+                  film: dict[str, float] | None = None):
+    """The xarray Dataset of the data contract; ``film``: the FILM_VARIABLES (scalars), if given."""
     angles = columns["crank_angle"]
     data = dict(columns)
     data["ideal_pin_force_x"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_x)
@@ -152,6 +181,9 @@ def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict):
     data["h_min_over_sigma"] = data["h_min"] / case.surface.sigma
     variables = {name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
                  for name, (u, ln) in VARIABLES.items()}
+    if film is not None:
+        variables.update({name: ((), float(film[name]), {"units": u, "long_name": ln})
+                          for name, (u, ln) in FILM_VARIABLES.items()})
     coords = {"crank_angle": ("crank_angle", angles, {"units": "degree",
                                                       "long_name": "crank angle (0 = TDC at the start of intake)"})}
     return xr.Dataset(variables, coords=coords, attrs=attrs)
@@ -167,6 +199,7 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         "F_asperity_max": _nanreduce(np.nanmax, cols["F_asperity"]),
         "friction_power_mean": _cycle_mean(cols["crank_angle"], cols["friction_power"]),
     }
+    film = run.film_record(cycle)
     attrs = {**case_attributes(case)}
     attrs.update({
         "status": "complete", "solver_version": __version__, "joint": joint, "cycles": cycles,
@@ -185,14 +218,21 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         + "; one value per computed cycle, the first cycle first",
         "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",
     })
-    ds = build_dataset(case, cols, ideal, attrs=attrs)
+    if run.thermal is not None:
+        attrs["thermal.temperatures_C"] = np.array([b.temperature for b in run.thermal.history], dtype=float)
+        attrs["thermal.closures"] = np.array([b.closure for b in run.thermal.history], dtype=float)
+        attrs["thermal.description"] = ("film temperature and heat balance closure of every computed cycle, "
+                                        "the first cycle first (solver.study.thermal)")
+    ds = build_dataset(case, cols, ideal, attrs=attrs, film=film)
     results = out_dir / "results.nc"
     if comm.rank == 0:
         io.write_netcdf(ds, results)
         plot_cycle(ds, out_dir, title=f"{case.name} ({joint})")
     comm.Barrier()
     return RunSummary(case=case.name, results=results, cycles=cycles, periodic=periodic, wall_time=wall_time,
-                      **summary_values)
+                      **summary_values, **{name: film[name] for name in ("film_temperature", "film_viscosity",
+                                                                         "thermal_closure", "heat_generated",
+                                                                         "heat_to_oil", "heat_carried")})
 
 
 def _nanreduce(fn, values: np.ndarray) -> float:

@@ -12,6 +12,13 @@ integrates whole 720 deg cycles until the cycle minimum of the film thickness ch
 ``solver.max_cycles``); the last cycle is reported. The state is checkpointed at every cycle end
 (``results/checkpoint.npz``), so an interrupted run resumes from the last finished cycle.
 
+With ``oil.thermal = "effective"`` the film's temperature is iterated with the cycles too
+(solver.study.thermal): cycle k runs at T_k, its heat balance (cycle means of ``dissipated_power`` and
+``side_flow``) gives T_(k+1), and the joint's viscosity is set to the oil's at T_(k+1) before the next
+cycle (``_Run.set_film_temperature``). The run stops when the cycle is periodic and its heat balance
+closes within ``oil.thermal_tolerance`` (``periodic`` in the results means both); the checkpoint keeps
+the balances of the cycles, so a resumed run goes on with the same temperatures.
+
 Per output crank angle (step ``solver.step_deg``) the results hold the DESIGN 4 variables (pin force
 on the rod, eccentricity in the rod frame, h_min, p_max, film and asperity forces, friction torque and
 power, crank torque, ...) and the ideal-joint pin force for comparison. Energy bookkeeping per output:
@@ -45,12 +52,13 @@ from solver import __version__
 from solver.case import Case, case_attributes, load_case
 from solver.dynamics.engine import CRANK, PISTON, ROD, build_mechanism, engine_from_case, simulate_ideal
 from solver.dynamics.integrate import IntegrationError, integrate
-from solver.dynamics.joint import JOINTS, joint_from_case
+from solver.dynamics.joint import JOINTS, FilmJoint, joint_from_case
 from solver.dynamics.multibody import accelerations, joint_reactions, rotation
 from solver.errors import InputError
 from solver.study import io
 from solver.study import results as results_io
 from solver.study.results import TIMING, RunSummary
+from solver.study.thermal import EffectiveTemperature, HeatBalance, ThermalError, ThermalModel, cycle_mean
 
 log = logging.getLogger(__name__)
 
@@ -93,9 +101,19 @@ class _Run:
         self.steps = 0  # accepted integrator steps so far
         self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
         self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
-        # the elastic unknowns at each output state of the last integrated cycle (None: rigid), for
-        # write_fields to re-solve the film with the run's deformation history
-        self.committed: list[np.ndarray | None] = []
+        # per output state of the last integrated cycle, the committed state (time, elastic unknowns) its
+        # deformation's rate started from (None: rigid, or quasi-static), for write_fields to solve the
+        # film again as the run did
+        self.committed: list[tuple[float, np.ndarray] | None] = []
+        # the film's oil in the cycles run now: temperature [C] (NaN when the case gives a fixed
+        # viscosity) and viscosity [Pa s]; with oil.thermal = "effective" the iteration sets them
+        oil, data = case.oil, case.oil.data()
+        self.film_temperature = oil.temperature if data is not None else math.nan
+        self.film_viscosity = oil.viscosity
+        self.thermal: EffectiveTemperature | None = None
+        if oil.thermal == "effective":
+            model = ThermalModel(data, oil.specific_heat, oil.heat_to_solids, oil.temperature)
+            self.thermal = EffectiveTemperature(model, oil.thermal_tolerance)
 
     # -- integration ------------------------------------------------------------------------------
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
@@ -164,9 +182,11 @@ class _Run:
             self.joint.commit(t)
 
     def _commit(self, t: float) -> None:
-        """An accepted output state: an elastic bushing's deformation there starts the next rate."""
+        """An accepted output state: an elastic bushing's deformation there starts the next rate (it
+        replaces the commit of the step that ended there: the output's velocities are the consistent ones)."""
         if self.model is not None and hasattr(self.joint, "commit"):
-            self.committed.append(self.joint.commit(t))
+            self.committed.append(self.model.rate_start(t))
+            self.joint.commit(t)
 
     def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state, evaluated at consistent velocities; returns (outputs, those velocities)."""
@@ -211,6 +231,7 @@ class _Run:
         values = dict(ecc_x=nan, ecc_y=nan, ecc_rate_x=nan, ecc_rate_y=nan, omega_rel=nan, pin_force_x=nan, pin_force_y=nan, h_min=nan, p_max=nan, F_hydro=nan,
                       F_asperity=nan, friction_torque=nan, friction_power=nan, squeeze_power=nan,
                       dissipated_power=nan, contact_area_ratio=nan, deformation_max=nan, deformation_max_angle=nan)
+        values["side_flow"] = nan
         if em.small_end is None:
             values["pin_force_x"], values["pin_force_y"] = reactions["small_end"][ROD, :2]
         else:
@@ -233,9 +254,10 @@ class _Run:
                 values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
                               contact_area_ratio=result.contact_area_ratio, h_min=result.h_min,
                               deformation_max=result.max_deformation,
-                              deformation_max_angle=result.max_deformation_theta)
+                              deformation_max_angle=result.max_deformation_theta, side_flow=result.side_flow)
             elif self.joint_name == "short-bearing":
-                values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0)
+                values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0,
+                              side_flow=self.joint.side_flow(kin.ecc, kin.ecc_rate, kin.omega_rel))
             elif self.joint_name == "dry":
                 values.update(F_hydro=0.0, F_asperity=float(np.hypot(*F_b)))
         out.update(values)
@@ -248,6 +270,57 @@ class _Run:
         out["potential_energy"] = float(np.sum(m * g * x_cm))
         out["input_power"] = (out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON])
         return out
+
+    # -- film temperature ---------------------------------------------------------------------------
+    def set_film_temperature(self, temperature: float, t: float) -> None:
+        """The film's oil at ``temperature`` [C] from time t [s] on (a cycle end): the joint's viscosity
+        becomes the oil's there (oil.thermal = "effective"; the density enters the heat balance only).
+
+        A finite-element film with ``set_viscosity(mu)`` is updated in place and gets a new FilmJoint
+        (its cache holds results at the old viscosity). Without it, the joint and its film model are
+        built again from the case at the new temperature (mixed-fem: ~0.4 s with the compiled forms
+        cached, ~1.5 s for a new viscosity, whose forms are compiled anew; the warm start is lost). An
+        elastic bushing's last committed deformation is committed to the new model at t, so a solve at t
+        takes its deformation rate as quasi-static where the run would have used the state before t.
+        """
+        oil = dataclasses.replace(self.case.oil, temperature=temperature)
+        if self.model is not None and hasattr(self.model, "set_viscosity"):
+            self.model.set_viscosity(oil.viscosity)
+            self.joint = FilmJoint(self.model)
+        else:
+            deformation = self.joint.commit(t) if self.model is not None else None
+            if self.model is not None:
+                self.model.close()
+            case = dataclasses.replace(self.case, oil=oil)
+            self.joint, self.model = joint_from_case(case, self.engine, self.comm, self.joint_name)
+            if deformation is not None:
+                self.model.commit_deformation(deformation, t)
+        self.em = build_mechanism(self.engine, self.joint)
+        self.film_temperature, self.film_viscosity = temperature, oil.viscosity
+
+    def heat_balance(self, cycle: CycleOutput) -> HeatBalance:
+        """The heat balance of a cycle at the film temperature it ran at (oil.thermal = "effective")."""
+        cols = cycle.columns
+        heat, flow = (cycle_mean(cols[name], cols["time"]) for name in ("dissipated_power", "side_flow"))
+        return self.thermal.model.balance(self.film_temperature, heat, flow)
+
+    def film_record(self, cycle: CycleOutput) -> dict[str, float]:
+        """The film's oil and heat balance in the last cycle (solver.study.results.FILM_VARIABLES).
+
+        Isothermal: the case's temperature (NaN with a fixed viscosity) and viscosity, the heat
+        generated, and NaN for the balance's other terms and its closure.
+        """
+        cols, nan, data = cycle.columns, math.nan, self.case.oil.data()
+        record = {"film_temperature": self.film_temperature, "film_viscosity": self.film_viscosity,
+                  "film_density": float(data.density(self.film_temperature)) if data is not None else nan,
+                  "heat_generated": cycle_mean(cols["dissipated_power"], cols["time"]),
+                  "side_flow_mean": cycle_mean(cols["side_flow"], cols["time"]),
+                  "heat_to_oil": nan, "heat_carried": nan, "thermal_closure": nan}
+        if self.thermal is not None and self.thermal.history:
+            balance = self.thermal.history[-1]
+            record.update(heat_to_oil=balance.heat_to_oil, heat_carried=balance.heat_carried,
+                          thermal_closure=balance.closure)
+        return record
 
     # -- film fields --------------------------------------------------------------------------------
     def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
@@ -268,9 +341,9 @@ class _Run:
             kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
                              (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
                              float(cols["omega_rel"][k]), 0.0)
-            if k > 0 and k - 1 < len(committed) and committed[k - 1] is not None:
-                # elastic bushing: the deformation's rate from the previous output state, as in the run
-                self.model.commit_deformation(committed[k - 1], float(cols["time"][k - 1]))
+            if k < len(committed) and committed[k] is not None:
+                # elastic bushing: the deformation's rate from the state it started from in the run
+                self.model.commit_deformation(committed[k][1], committed[k][0])
                 self.model.solve(kin, float(cols["time"][k]))
             else:
                 self.model.solve(kin)
@@ -344,7 +417,8 @@ def _ideal_cycle_output(ideal) -> CycleOutput:
     }
     for name in ("ecc_x", "ecc_y", "ecc_rate_x", "ecc_rate_y", "omega_rel", "h_min", "p_max", "F_hydro", "F_asperity",
                  "friction_torque", "friction_power", "squeeze_power", "dissipated_power", "contact_area_ratio",
-                 "deformation_max", "deformation_max_angle", "kinetic_energy", "potential_energy"):
+                 "deformation_max", "deformation_max_angle", "kinetic_energy", "potential_energy",
+                 "side_flow"):
         columns[name] = nan.copy()
     return CycleOutput(columns, math.nan)
 
@@ -369,6 +443,9 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
     joint = joint or case.solver.joint
     if joint not in JOINTS:
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
+    if case.oil.thermal == "effective" and joint not in ("mixed-fem", "short-bearing"):
+        raise InputError(f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
+                         f'"mixed-fem" or "short-bearing"; got {joint!r})')
     out_dir = case.directory / "results"
     if comm.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -394,6 +471,9 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
                 checkpoint.unlink()
         log.info("finished in %.1f s: h_min min %.3g um, p_max max %.3g MPa, %d cycles, periodic %s", wall,
                  summary.h_min_min * 1e6, summary.p_max_max / 1e6, cycles_done, periodic)
+        if run.thermal is not None:
+            log.info("film temperature %.6g C, viscosity %.6g Pa s, heat balance closure %.2g",
+                     summary.film_temperature, summary.film_viscosity, summary.thermal_closure)
         return summary
     finally:
         results_io.detach_log(handler)
@@ -402,15 +482,19 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
 
 
 def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
-    """Integrate cycles until periodic; checkpoint at cycle ends. Returns (last cycle, count, periodic)."""
+    """Integrate cycles until periodic (and, with oil.thermal = "effective", thermally consistent);
+    checkpoint at cycle ends. Returns (last cycle, count, periodic)."""
     case, comm = run.case, run.comm
     fingerprint = _case_fingerprint(case, run.joint_name)
     checkpoint = out_dir / "checkpoint.npz"
     state = results_io.read_checkpoint(checkpoint, fingerprint) if resume else None
     timings: list[dict[str, float]] = []
     if state is not None:
-        first, t0, q0, qd0, history, timings = state
+        first, t0, q0, qd0, history, timings, thermal_state = state
         log.info("resuming after cycle %d from %s", first, checkpoint)
+        if run.thermal is not None and thermal_state:
+            thermal = run.thermal
+            run.thermal = EffectiveTemperature.from_state(thermal.model, thermal.tolerance, thermal_state)
     else:
         first, history = 0, []
         t0, q0, qd0 = run.em.initial_state(0.0)
@@ -428,34 +512,62 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     cycle = None
     periodic = False
     c = case.small_end.clearance
+
+    def at_film_temperature(t_start: float) -> None:  # the temperature the thermal iteration asks for
+        if run.thermal is not None and run.thermal.temperature != run.film_temperature:
+            run.set_film_temperature(run.thermal.temperature, t_start)
+
+    def thermal_step(cycle_index: int, cycle: CycleOutput) -> bool:  # True: consistent (or isothermal)
+        if run.thermal is None:
+            return True
+        try:
+            balance = run.heat_balance(cycle)
+            following = run.thermal.record(balance)
+        except ThermalError as err:
+            raise SimulationError(f"cycle {cycle_index + 1}: {err}") from None
+        log.info("cycle %d: film %.6g C, %.4g Pa s: heat %.4g W, into the oil %.4g W, carried by the side "
+                 "flow (%.4g mm^3/s) %.4g W, closure %.2g; next cycle at %.6g C", cycle_index + 1,
+                 balance.temperature, run.film_viscosity, balance.dissipated_power, balance.heat_to_oil,
+                 balance.side_flow * 1e9, balance.heat_carried, balance.closure, following)
+        return run.thermal.converged
     try:
         # log lines go above the progress bar instead of through it
         with _logs_above_the_bar() if bar is not None else nullcontext():
             for index in range(first, case.solver.max_cycles):
+                at_film_temperature(t0)
                 cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
                 history.append(cycle.h_min_min)
                 change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
                 log.info("cycle %d: min h_min = %.4g um (change %.2g of the clearance)", index + 1,
                          cycle.h_min_min * 1e6, change)
+                consistent = thermal_step(index, cycle)
                 begin = time.perf_counter()
                 timings.append(cycle.timing)
                 if comm.rank == 0:
-                    results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history, timings)
+                    thermal = run.thermal.state() if run.thermal is not None else None
+                    results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history,
+                                                timings, thermal=thermal)
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
-                if change < case.solver.periodic_tolerance:
+                if change < case.solver.periodic_tolerance and consistent:
                     periodic = True
                     break
     finally:
         if bar is not None:
             bar.close()
     if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
+        at_film_temperature(t0)
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
+        thermal_step(len(history) - 1, cycle)
         timings.append(cycle.timing)
     run.timings = timings
-    if not periodic:
+    change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+    if not change < case.solver.periodic_tolerance:
         log.warning("not periodic after %d cycles (tolerance %g of the clearance)", len(history),
                     case.solver.periodic_tolerance)
+    if run.thermal is not None and not run.thermal.converged:
+        log.warning("not thermally consistent after %d cycles: heat balance closure %.2g (tolerance %g)",
+                    len(history), run.thermal.history[-1].closure, run.thermal.tolerance)
     return cycle, len(history), periodic
