@@ -572,6 +572,11 @@ class FilmModel:
         earlier = [entry for entry in self._history if entry[0] < time_s]
         self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
 
+    def deformation_history(self) -> list[tuple[float, np.ndarray]]:
+        """The committed states kept, oldest first: (time [s], coupled unknowns), copies (for a
+        checkpoint: committed again in that order, they restore the deformation's history); [] if rigid."""
+        return [(time_s, state.copy()) for time_s, state in self._history]
+
     #: committed states kept: a solve at the time of the last commit takes its rate from the one before
     HISTORY = 2
 

@@ -142,18 +142,23 @@ def detach_log(handler: logging.Handler | None) -> None:
 
 
 def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=(), *,
-                     thermal: list[dict] | None = None) -> None:
-    """State at a cycle end, with the h_min history, the cycles' timing and the thermal iteration's
-    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal) (atomic)."""
+                     thermal: list[dict] | None = None, film: list[tuple[float, np.ndarray]] | None = None) -> None:
+    """State at a cycle end, with the h_min history, the cycles' timing, the thermal iteration's
+    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal) and an elastic bushing's
+    committed film states (solver.film.bearing.FilmModel.deformation_history; None: rigid) (atomic)."""
+    film = film or []
+    film_times = np.array([time for time, _ in film], dtype=float)
+    film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
     with io.atomic_path(path) as part:
         with open(part, "wb") as stream:
             np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history),
-                     timings=json.dumps(list(timings)), thermal=json.dumps(thermal))
+                     timings=json.dumps(list(timings)), thermal=json.dumps(thermal), film_times=film_times,
+                     film_states=film_states)
 
 
 def read_checkpoint(path: Path, fingerprint: str):
-    """(cycles done, t, q, qd, h_min history, timings, thermal state or None) from a checkpoint of the same
-    case, else None."""
+    """(cycles done, t, q, qd, h_min history, timings, thermal state or None, committed film states) from a
+    checkpoint of the same case, else None."""
     if not path.is_file():
         return None
     try:
@@ -163,8 +168,9 @@ def read_checkpoint(path: Path, fingerprint: str):
                 return None
             timings = json.loads(str(data["timings"])) if "timings" in data else []
             thermal = json.loads(str(data["thermal"])) if "thermal" in data else None
+            film = list(zip(data["film_times"].tolist(), data["film_states"].copy())) if "film_times" in data else []
             return (int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"]),
-                    timings, thermal)
+                    timings, thermal, film)
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
         return None

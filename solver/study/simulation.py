@@ -490,8 +490,11 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     state = results_io.read_checkpoint(checkpoint, fingerprint) if resume else None
     timings: list[dict[str, float]] = []
     if state is not None:
-        first, t0, q0, qd0, history, timings, thermal_state = state
+        first, t0, q0, qd0, history, timings, thermal_state, film_states = state
         log.info("resuming after cycle %d from %s", first, checkpoint)
+        if run.model is not None:  # an elastic bushing's deformation history goes on where it stopped
+            for time_s, film_state in film_states:
+                run.model.commit_deformation(film_state, time_s)
         if run.thermal is not None and thermal_state:
             thermal = run.thermal
             run.thermal = EffectiveTemperature.from_state(thermal.model, thermal.tolerance, thermal_state)
@@ -545,8 +548,9 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
                 timings.append(cycle.timing)
                 if comm.rank == 0:
                     thermal = run.thermal.state() if run.thermal is not None else None
+                    film = run.model.deformation_history() if run.model is not None else None
                     results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history,
-                                                timings, thermal=thermal)
+                                                timings, thermal=thermal, film=film)
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
