@@ -197,8 +197,8 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("small_end", "elastic", "elastic", str, "none", choices=("none", "winkler", "fe"),
               doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
                   "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-                  "eye and bushing, cached on disk); needs inlet none or hole. Engine runs with it are "
-                  "experimental: see the README"),
+                  "eye and bushing, cached on disk); needs inlet none or hole. An engine cycle costs 5-15 times "
+                  "the rigid one (see the README's benchmarks)"),
     _f("small_end", "bushing_thickness_mm", "bushing_thickness", 1.5, 1e-3, 0.0, unit="mm",
        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)"),
     _f("small_end", "eye_outer_radius_mm", "eye_outer_radius", 17.0, 1e-3, 0.0, unit="mm",
