@@ -80,6 +80,7 @@ class FixedPatternLU:
         #: optional damping of the Newton step: ``limit(step) -> factor in (0, 1]`` on the full step
         #: (the coupled elastic film limits the change of the film thickness, solver.film.ehd)
         self.limit = None
+        self.failed = False  # the last factorisation failed (see factor)
 
     def factor(self, inactive: PETSc.IS) -> None:
         """Numerically factorise K for this inactive set (owned global indices)."""
@@ -90,6 +91,12 @@ class FixedPatternLU:
         keep[inactive.getIndices() - start] = True
         active = (np.flatnonzero(~keep) + start).astype(PETSc.IntType)
         K.zeroRowsColumns(active, diag=1.0)
+        if self.failed:
+            # MUMPS keeps the error of a failed factorisation (INFOG(1) < 0) and returns from every later
+            # numeric factorisation at once, so one zero pivot would fail every later solve of this
+            # film: a failed factorisation is started over, analysis included
+            self.ksp.reset()
+            self.failed = False
         self.ksp.setOperators(K)
         self.ksp.setUp()
         self.inactive = inactive
@@ -100,6 +107,7 @@ class FixedPatternLU:
         self.ksp.solve(b, x)
         reason = self.ksp.getConvergedReason()
         if reason < 0:  # a zero pivot: no Jacobian rather than a wrong one
+            self.failed = True
             raise FilmNotConverged("film sensitivities: the LU factorisation failed", reason, 0)
 
     # -- PCShell interface (petsc4py's python PC) ------------------------------------------------
@@ -114,6 +122,7 @@ class FixedPatternLU:
         self.ksp.solve(self.b, self.x)
         step = self.x.getArray(readonly=True)
         if self.ksp.getConvergedReason() < 0 or not np.all(np.isfinite(step)):
+            self.failed = self.failed or self.ksp.getConvergedReason() < 0
             y.set(float("nan"))  # a failed factorisation: a NaN step makes SNES diverge
             return
         factor = 1.0 if self.limit is None else self.limit(step)

@@ -200,6 +200,7 @@ class ElasticFilm:
         self.q = np.zeros(m)
         self.rigid_gap = np.ones(n)  # H_rigid at the dofs of the state being solved (set by the FilmModel)
         self._state: np.ndarray | None = None  # the x of the cached evaluation (and its residual, _r)
+        self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _scatter's lookup
         self.iterations = 0
 
     def _snes(self, options: dict) -> PETSc.SNES:
@@ -244,11 +245,12 @@ class ElasticFilm:
         xa = x.getArray(readonly=True)
         if self._state is None or not np.array_equal(xa, self._state):
             self.residual(xa)
-        J.setValuesCSR(self.indptr, self.indices, self._scatter(self.jacobian_matrix()))
+        J.setValuesCSR(self.indptr, self.indices, self._scatter(self.jacobian_matrix("coo")))
         J.assemble()
 
-    def jacobian_matrix(self) -> scipy.sparse.csr_matrix:
-        """The coupled Jacobian at the cached state (scipy, for the scatter and for tests)."""
+    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
+        """The coupled Jacobian at the cached state (scipy, in ``format``: ``coo`` for the scatter,
+        unsorted and with duplicates, which ``_scatter`` sums; ``csr`` for tests)."""
         op, k, n = self.op, self.k, self.n
         P = self.P.x.array[:n].copy()
         P[op.bc_dofs] = op.bc_values[op.bc_dofs]  # the residual's lifting uses the Dirichlet values
@@ -264,16 +266,19 @@ class ElasticFilm:
         contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
         J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
         J_qP = self.J_qP if self.slope is None else self.J_qP @ scipy.sparse.diags(self.slope)
-        return scipy.sparse.bmat([[self._A, J_Pq], [J_qP, J_qq]], format="csr")
+        return scipy.sparse.bmat([[self._A, J_Pq], [J_qP, J_qq]], format=format)
 
-    def _scatter(self, J: scipy.sparse.csr_matrix) -> np.ndarray:
-        """J's values in the fixed pattern (zeros where J has no entry)."""
-        J.sum_duplicates()
-        coo = J.tocoo()
-        position = np.searchsorted(self.keys, coo.row.astype(np.int64) * self.N + coo.col)
-        values = np.zeros(len(self.indices))
-        values[position] = coo.data
-        return values
+    def _scatter(self, J: scipy.sparse.coo_matrix) -> np.ndarray:
+        """J's values in the fixed pattern (duplicates summed; zeros where J has no entry). The blocks'
+        structures repeat from call to call, so the positions in the pattern are looked up once per
+        structure (a sort and a search of every entry cost more than the rest of the Jacobian)."""
+        row, col = J.row, J.col
+        cached = self._positions
+        if cached is None or len(cached[0]) != len(row) or not (np.array_equal(cached[0], row)
+                                                                and np.array_equal(cached[1], col)):
+            position = np.searchsorted(self.keys, row.astype(np.int64) * self.N + col)
+            self._positions = cached = (row.copy(), col.copy(), position)
+        return np.bincount(cached[2], weights=J.data, minlength=len(self.indices))
 
     #: the largest change of the film thickness per Newton step (W = w / c): from a far start (a cold
     #: one, or a warm one after a large change of load) the full step overshoots the deformation by
@@ -408,15 +413,20 @@ class _DampedLU:
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")
         self.ksp.getPC().setFactorSolverType("mumps")
+        self.failed = False
 
     def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
         A, _ = pc.getOperators()
+        if self.failed:  # as FixedPatternLU.factor: MUMPS would keep the failed factorisation's error
+            self.ksp.reset()
+            self.failed = False
         self.ksp.setOperators(A)
         self.ksp.setUp()
 
     def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
         self.ksp.solve(x, y)
         if self.ksp.getConvergedReason() < 0:
+            self.failed = True
             y.set(float("nan"))
             return
         y.scale(self.film._limit(y.getArray(readonly=True)))
