@@ -29,6 +29,9 @@ import numpy as np
 from solver.errors import InputError, out_of_range, read_toml_file
 from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
+#: the small end's oil inlets (``oil.inlet``): the last three are an oil supply at ``oil.supply_pressure_bar``
+INLETS = ("none", "max-gap", "hole", "axial-groove", "circumferential-groove")
+
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
 BAR = 1e5  # Pa per bar
@@ -197,7 +200,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("small_end", "elastic", "elastic", str, "none", choices=("none", "winkler", "fe"),
               doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
                   "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-                  "eye and bushing, cached on disk); needs inlet none or hole. An engine cycle costs 5-15 times "
+                  "eye and bushing, cached on disk); needs inlet none, hole or a groove. An engine cycle costs 5-15 times "
                   "the rigid one (see the README's benchmarks)"),
     _f("small_end", "bushing_thickness_mm", "bushing_thickness", 1.5, 1e-3, 0.0, unit="mm",
        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)"),
@@ -246,15 +249,26 @@ FIELDS: tuple[FieldSpec, ...] = (
        doc="pressure-viscosity coefficient alpha (engine oils: 10-20 1/GPa)"),
     _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
        doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
-    FieldSpec("oil", "inlet", "inlet", str, "none", choices=("none", "max-gap", "hole"),
+    FieldSpec("oil", "inlet", "inlet", str, "none", choices=INLETS,
               doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
-                  "along the line of maximum film thickness) or hole (a supply hole, below)"),
+                  "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
+                  "round hole), axial-groove (a rectangular axial groove) or circumferential-groove (a full "
+                  "circumferential groove), each centred on the mid-plane (below)"),
     _f("oil", "supply_hole_angle_deg", "supply_hole_angle", 0.0, DEG, -360.0, 360.0, unit="deg",
        doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the small end)"),
     _f("oil", "supply_hole_diameter_mm", "supply_hole_diameter", 3.0, 1e-3, 0.0, unit="mm",
-       doc="with inlet = hole: hole diameter; < bushing width"),
+       doc="with inlet = hole: hole diameter; < bushing width and < pin radius"),
+    _f("oil", "groove_angle_deg", "groove_angle", 0.0, DEG, -360.0, 360.0, unit="deg",
+       doc="with inlet = axial-groove: angle of the groove's centre in the rod frame from the rod axis (0 = top "
+           "of the small end)"),
+    _f("oil", "groove_arc_deg", "groove_arc", 30.0, DEG, 0.0, 360.0, unit="deg",
+       doc="with inlet = axial-groove: the groove's circumferential extent"),
+    _f("oil", "groove_length_mm", "groove_length", 10.0, 1e-3, 0.0, unit="mm",
+       doc="with inlet = axial-groove: the groove's axial length; < bushing width"),
+    _f("oil", "groove_width_mm", "groove_width", 3.0, 1e-3, 0.0, unit="mm",
+       doc="with inlet = circumferential-groove: the groove's axial width; < bushing width"),
     _f("oil", "supply_pressure_bar", "supply_pressure", 0.0, BAR, 0.0, 1000.0, closed=True, unit="bar",
-       doc="with inlet = hole: oil pressure in the hole, gauge"),
+       doc="with inlet = hole or a groove: oil pressure in the supply, gauge"),
     # [surface]
     _f("surface", "sigma_pin_um", "sigma_pin", 0.1, 1e-6, 0.0, closed=True, unit="um",
        doc="pin roughness Rq"),
@@ -448,9 +462,13 @@ class Oil:
     piezoviscosity: str = "none"
     pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
-    inlet: str = "none"
+    inlet: str = "none"  # one of INLETS
     supply_hole_angle: float = _field("oil", "supply_hole_angle")  # rad, rod frame
     supply_hole_diameter: float = _field("oil", "supply_hole_diameter")  # m
+    groove_angle: float = _field("oil", "groove_angle")  # rad, rod frame (axial groove)
+    groove_arc: float = _field("oil", "groove_arc")  # rad (axial groove)
+    groove_length: float = _field("oil", "groove_length")  # m (axial groove)
+    groove_width: float = _field("oil", "groove_width")  # m (circumferential groove)
     supply_pressure: float = _field("oil", "supply_pressure")  # Pa, gauge
 
     def __post_init__(self) -> None:
@@ -544,6 +562,25 @@ class Case:
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
     solver: Solver = dataclasses.field(default_factory=Solver)
+
+    def __post_init__(self) -> None:
+        _check_supply(self.oil, self.small_end)
+
+
+def _check_supply(oil: Oil, small_end: SmallEnd) -> None:
+    """The oil supply (hole or groove, centred on the mid-plane) must fit on the small end's bushing."""
+    width = small_end.width * 1e3  # mm
+    if oil.inlet == "hole":
+        limit = min(small_end.width, small_end.pin_radius) * 1e3
+        if not oil.supply_hole_diameter * 1e3 < limit:
+            raise out_of_range("oil.supply_hole_diameter_mm", f"{oil.supply_hole_diameter * 1e3:g}",
+                               f"< min(small_end.width_mm, small_end.pin_radius_mm) = {limit:g}")
+    elif oil.inlet == "axial-groove" and not oil.groove_length * 1e3 < width:
+        raise out_of_range("oil.groove_length_mm", f"{oil.groove_length * 1e3:g}",
+                           f"(0, small_end.width_mm = {width:g}), inside the bushing")
+    elif oil.inlet == "circumferential-groove" and not oil.groove_width * 1e3 < width:
+        raise out_of_range("oil.groove_width_mm", f"{oil.groove_width * 1e3:g}",
+                           f"(0, small_end.width_mm = {width:g}), inside the bushing")
 
 
 _SECTION_CLASSES = {

@@ -5,6 +5,10 @@ speed). The load acts on the journal along the bushing's -y axis ("downwards"); 
 the journal centre that many degrees from the load line in the direction of rotation. With
 ``--eccentricity-rate`` the journal also moves along the line of centres (pure squeeze if the speed
 is 0). All inputs and outputs are SI except the speed (rpm) and angles (degrees).
+
+An oil supply (a round hole, a rectangular axial groove or a full circumferential groove, centred on
+the mid-plane) is held at ``--supply-pressure``; it goes with ``--inlet none`` (its default then).
+The report gives the flow from the supply into the film beside the side flow (solver.film.bearing).
 """
 
 from __future__ import annotations
@@ -69,9 +73,75 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--cavitation-pressure", type=_number("--cavitation-pressure", high=0, high_open=False,
                                                          allowed="<= 0 Pa gauge"),
                    default=0.0, help="cavitation pressure [Pa gauge] (default 0)")
-    g.add_argument("--inlet", choices=("max-gap", "none"), default="max-gap",
+    g.add_argument("--inlet", choices=("max-gap", "none"), default=None,
                    help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
-                        "assumption, default); none: cavitation alone decides")
+                        "assumption, default without a supply); none: cavitation alone decides (default, and the "
+                        "only choice, with an oil supply below)")
+    add_supply_arguments(parser)
+
+
+def add_supply_arguments(parser: argparse.ArgumentParser) -> None:
+    """The oil supply: a round hole, a rectangular axial groove or a full circumferential groove, each centred
+    on the mid-plane and held at --supply-pressure. Angles are bushing angles [deg] from the bushing's +x
+    axis toward +y (the load acts along -y, at -90)."""
+    g = parser.add_argument_group("oil supply (one of: a hole, an axial groove, a circumferential groove)")
+    g.add_argument("--hole-angle", type=_number("--hole-angle", -360, 360, allowed="(-360, 360) deg"), default=None,
+                   help="round hole: bushing angle of its centre [deg] (with --hole-diameter)")
+    g.add_argument("--hole-diameter", type=_number("--hole-diameter", 0, allowed="(0, min(width, radius)) m"),
+                   default=None, help="round hole: diameter [m]")
+    g.add_argument("--groove-angle", type=_number("--groove-angle", -360, 360, allowed="(-360, 360) deg"),
+                   default=None, help="axial groove: bushing angle of its centre [deg] (with --groove-arc and "
+                                      "--groove-length)")
+    g.add_argument("--groove-arc", type=_number("--groove-arc", 0, 360, allowed="(0, 360) deg"), default=None,
+                   help="axial groove: circumferential extent [deg]")
+    g.add_argument("--groove-length", type=_number("--groove-length", 0, allowed="(0, width) m"), default=None,
+                   help="axial groove: axial length [m]")
+    g.add_argument("--circumferential-groove", metavar="WIDTH", type=_number("--circumferential-groove", 0,
+                                                                             allowed="(0, width) m"),
+                   default=None, help="a full circumferential groove of this axial width [m]")
+    g.add_argument("--supply-pressure", type=_number("--supply-pressure", 0, low_open=False, allowed=">= 0 Pa gauge"),
+                   default=None, help="oil pressure in the hole or groove [Pa gauge] (default 0)")
+
+
+SUPPLY_FLAGS = {  # supply -> its flags (argparse dest, flag)
+    "hole": (("hole_angle", "--hole-angle"), ("hole_diameter", "--hole-diameter")),
+    "axial-groove": (("groove_angle", "--groove-angle"), ("groove_arc", "--groove-arc"),
+                     ("groove_length", "--groove-length")),
+    "circumferential-groove": (("circumferential_groove", "--circumferential-groove"),),
+}
+
+
+def resolve_supply(args) -> None:
+    """Check the oil supply options, set ``args.supply`` (``"none"`` or a key of SUPPLY_FLAGS) and
+    ``args.inlet`` (default: ``"none"`` with a supply, ``"max-gap"`` without); errors name the flags."""
+    given = [name for name, flags in SUPPLY_FLAGS.items() if any(getattr(args, dest) is not None for dest, _ in flags)]
+    if len(given) > 1:
+        flags = " and ".join(SUPPLY_FLAGS[name][0][1] for name in given)
+        raise InputError(f"{flags}: two oil supplies (allowed: one of a hole, an axial groove, a circumferential groove)")
+    args.supply = given[0] if given else "none"
+    if args.supply != "none":
+        missing = [flag for dest, flag in SUPPLY_FLAGS[args.supply] if getattr(args, dest) is None]
+        if missing:
+            present = [flag for dest, flag in SUPPLY_FLAGS[args.supply] if getattr(args, dest) is not None]
+            raise InputError(f"{' '.join(present)} without {' and '.join(missing)} (allowed: all of "
+                             f"{', '.join(flag for _, flag in SUPPLY_FLAGS[args.supply])})")
+        if args.inlet == "max-gap":
+            raise InputError(f"--inlet max-gap with {SUPPLY_FLAGS[args.supply][0][1]} (allowed with an oil supply: "
+                             "--inlet none)")
+        if args.supply == "hole" and not args.hole_diameter < min(args.width, args.radius):
+            raise InputError(f"--hole-diameter = {args.hole_diameter:g} is out of range (allowed: (0, min(width, "
+                             f"radius)) = (0, {min(args.width, args.radius):g}) m)")
+        if args.supply == "axial-groove" and not args.groove_length < args.width:
+            raise InputError(f"--groove-length = {args.groove_length:g} is out of range (allowed: (0, width) = "
+                             f"(0, {args.width:g}) m)")
+        if args.supply == "circumferential-groove" and not args.circumferential_groove < args.width:
+            raise InputError(f"--circumferential-groove = {args.circumferential_groove:g} is out of range (allowed: "
+                             f"(0, width) = (0, {args.width:g}) m)")
+    elif args.supply_pressure is not None:
+        raise InputError("--supply-pressure without an oil supply (allowed: with --hole-*, --groove-* or "
+                         "--circumferential-groove)")
+    if args.inlet is None:
+        args.inlet = "none" if args.supply != "none" else "max-gap"
 
 
 SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
@@ -240,15 +310,26 @@ def resolve_viscosity(args) -> None:
 
 
 def bearing_from_args(args):
+    """The Bearing of the parsed options (after resolve_viscosity and resolve_supply)."""
     from solver.film.bearing import Bearing  # dolfinx: after the arguments are checked
 
+    supply = {}
+    if args.supply == "hole":
+        supply = {"supply_hole_angle": math.radians(args.hole_angle), "supply_hole_diameter": args.hole_diameter}
+    elif args.supply == "axial-groove":
+        supply = {"groove": "axial", "groove_angle": math.radians(args.groove_angle),
+                  "groove_arc": math.radians(args.groove_arc), "groove_length": args.groove_length}
+    elif args.supply == "circumferential-groove":
+        supply = {"groove": "circumferential", "groove_width": args.circumferential_groove}
     return Bearing(radius=args.radius, width=args.width, clearance=args.clearance, viscosity=args.viscosity,
-                   cavitation_pressure=args.cavitation_pressure, inlet=args.inlet)
+                   cavitation_pressure=args.cavitation_pressure, inlet=args.inlet,
+                   supply_pressure=args.supply_pressure or 0.0, **supply)
 
 
 def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     resolve_viscosity(args)
+    resolve_supply(args)
     _check(args)
     _check_elastic(args, comm)
     from solver.film.bearing import (  # dolfinx: after the checks
@@ -317,6 +398,9 @@ def run(args, comm) -> int:
         "elastic": args.elastic, "piezoviscosity": args.piezoviscosity,
         "max_deformation_m": result.max_deformation,
         "max_deformation_angle_deg": math.degrees(result.max_deformation_theta),
+        # oil supply
+        "inlet": args.inlet, "supply": args.supply, "supply_pressure_Pa": args.supply_pressure or 0.0,
+        "supply_flow_m3_per_s": result.supply_flow,
     }
     if residual is not None:
         report["force_residual_N"] = residual
@@ -351,6 +435,8 @@ def _print_table(report: dict, stream) -> None:
     ]
     if "force_residual_N" in report:
         rows.append(("force residual", report["force_residual_N"], "N"))
+    if report["supply"] != "none":
+        rows.append(("supply flow", report["supply_flow_m3_per_s"] * 6e4, "l/min"))
     if report["h_min_over_sigma"] is not None:
         rows += [("hydrodynamic load", report["hydro_load_N"], "N"), ("asperity load", report["asperity_load_N"], "N"),
                  ("h_min / sigma", report["h_min_over_sigma"], ""),

@@ -25,6 +25,7 @@ from solver.cli.bearing import (
     add_geometry_arguments,
     add_surface_arguments,
     bearing_from_args,
+    resolve_supply,
     resolve_viscosity,
     surface_from_args,
 )
@@ -79,6 +80,7 @@ def sweep(model, load: float, speeds_rpm: np.ndarray, radius: float, progress=No
 def run(args, comm) -> int:
     """Sweep the speeds, write netCDF and PNG; returns the exit status."""
     resolve_viscosity(args)
+    resolve_supply(args)
     if args.points < 2:
         raise InputError(f"--points = {args.points} is out of range (allowed: >= 2)")
     if not args.speed_min < args.speed_max:

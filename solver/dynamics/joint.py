@@ -278,6 +278,20 @@ def surface_from_case(surf) -> Surface:
                    E_composite=surf.composite_modulus, asperity_friction=surf.asperity_friction)
 
 
+def bearing_supply(oil) -> dict[str, object]:
+    """The oil supply of a case's ``oil`` section (already checked to fit the small end, solver.case) as
+    keyword arguments of solver.film.bearing.Bearing (SI; the rod frame is the bushing frame)."""
+    if oil.inlet == "hole":
+        return {"supply_pressure": oil.supply_pressure, "supply_hole_angle": oil.supply_hole_angle,
+                "supply_hole_diameter": oil.supply_hole_diameter}
+    if oil.inlet == "axial-groove":
+        return {"supply_pressure": oil.supply_pressure, "groove": "axial", "groove_angle": oil.groove_angle,
+                "groove_arc": oil.groove_arc, "groove_length": oil.groove_length}
+    if oil.inlet == "circumferential-groove":
+        return {"supply_pressure": oil.supply_pressure, "groove": "circumferential", "groove_width": oil.groove_width}
+    return {}
+
+
 def joint_from_case(case: Case, engine, comm, joint: str):
     """The clearance-joint law of the case: (joint, film model or None). ``ideal`` gives (None, None)."""
     se, oil, surf, solver = case.small_end, case.oil, case.surface, case.solver
@@ -301,16 +315,10 @@ def joint_from_case(case: Case, engine, comm, joint: str):
 
     if se.elastic != "none" and oil.inlet == "max-gap":
         raise InputError("small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
-                         "bushing: inlet 'none' or 'hole')")
-    if oil.inlet == "hole" and not oil.supply_hole_diameter < min(se.width, se.pin_radius):
-        raise InputError(f"oil.supply_hole_diameter_mm = {oil.supply_hole_diameter * 1e3:g} is out of range "
-                         f"(allowed: < min(width, pin radius) = {min(se.width, se.pin_radius) * 1e3:g})")
+                         "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
     bearing = Bearing(radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity,
-                      cavitation_pressure=oil.cavitation_pressure,
-                      supply_pressure=oil.supply_pressure if oil.inlet == "hole" else 0.0,
-                      supply_hole_angle=oil.supply_hole_angle if oil.inlet == "hole" else None,
-                      supply_hole_diameter=oil.supply_hole_diameter if oil.inlet == "hole" else 0.0,
-                      inlet="max-gap" if oil.inlet == "max-gap" else "none")
+                      cavitation_pressure=oil.cavitation_pressure, inlet="max-gap" if oil.inlet == "max-gap" else "none",
+                      **bearing_supply(oil))
     surface = surface_from_case(surf)
     elastic = bushing_model(se.elastic, radius=se.pin_radius, width=se.width, bushing_thickness=se.bushing_thickness,
                             eye_outer_radius=se.eye_outer_radius, E_eye=se.E_eye, nu_eye=se.nu_eye,

@@ -20,10 +20,23 @@ of maximum film thickness, where the oil is taken to enter (the assumption of th
 finite-bearing tables of Butenschoen 1976 and Raimondi & Boyd 1958); cavitation elsewhere is the VI.
 It is implemented exactly by solving in a frame turned so that the maximum gap lies on the mesh
 seam (theta = 0), where the mesh has nodes, and turning the results back; the Jacobian then
-includes the motion of that line with the eccentricity direction. ``"none"``: only the edges (and a
-supply hole) are at ambient pressure and the VI alone places the film's start and end; on a full
-360 deg bearing this gives attitude angles 1-4 deg larger than the tables at eccentricity <= 0.6
-for the same load.
+includes the motion of that line with the eccentricity direction. ``"none"``: only the edges are at
+ambient pressure (and a supply at the supply pressure) and the VI alone places the film's start and
+end; on a full 360 deg bearing this gives attitude angles 1-4 deg larger than the tables at
+eccentricity <= 0.6 for the same load.
+
+Oil supply (``Bearing.supply``): a round hole, a rectangular axial groove or a full circumferential
+groove, centred on the mid-plane; the mesh cuts it out as the cells tagged ``supply``
+(solver.film.mesh), whose dofs are held at the supply pressure (one Dirichlet condition whatever the
+shape). It goes with ``inlet = "none"``.
+
+Flows. The side flow (out of both edges) and the supply flow (from the supply into the film) are the
+consistent fluxes of the discrete equation: ``r(P; w)`` with w = 1 on the edge (supply) dofs and 0
+elsewhere, i.e. the sum of the residuals of those dofs, in m^3/s. Their sum over all dofs is the
+integral of the source, so in a steady state the discrete balance is exact: supply flow + the oil
+the Reynolds condition creates in the cavitated zone (the sum of the VI's residuals there, >= 0) =
+side flow. The Reynolds cavitation model does not conserve mass: only without cavitation is the
+supply flow the side flow.
 
 Equilibrium under a load (``equilibrium``) is found by Newton's method on the two eccentricity
 components with the film's Jacobian.
@@ -54,15 +67,17 @@ from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.ehd import ElasticFilm, ModalCompliance, WinklerLayer, deformation_peak
-from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
+from solver.film.mesh import (
+    TAGS,
+    AxialGroove,
+    CircumferentialGroove,
+    FilmMeshSpec,
+    Supply,
+    SupplyHole,
+    film_mesh,
+)
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MidpointOperator
-
-
-def mesh_entities_to_cells(mesh, entities: np.ndarray) -> np.ndarray:
-    """Local cells that contain any of the given local facets."""
-    connectivity = mesh.topology.connectivity(mesh.topology.dim - 1, mesh.topology.dim)
-    return np.concatenate([connectivity.links(int(f)) for f in entities]) if len(entities) else np.zeros(0, np.int32)
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +117,7 @@ def _form(expression):
 
 
 INLETS = ("max-gap", "none")
+GROOVES = ("none", "axial", "circumferential")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
 STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
 DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
@@ -131,9 +147,14 @@ class Bearing:
     clearance: float  # m, radial clearance c
     viscosity: float  # Pa s, dynamic viscosity mu
     cavitation_pressure: float = 0.0  # Pa gauge, p_cav (<= 0)
-    supply_pressure: float = 0.0  # Pa gauge, pressure in the supply hole (if any)
+    supply_pressure: float = 0.0  # Pa gauge, pressure in the supply hole or groove (if any)
     supply_hole_angle: float | None = None  # rad, bushing angle of an oil hole (None: no hole)
     supply_hole_diameter: float = 0.0  # m
+    groove: str = "none"  # oil groove, centred on the mid-plane: "none", "axial" or "circumferential"
+    groove_angle: float = 0.0  # rad, axial groove: bushing angle of its centre
+    groove_arc: float = 0.0  # rad, axial groove: its circumferential extent, in (0, 2 pi)
+    groove_length: float = 0.0  # m, axial groove: its axial length, < width
+    groove_width: float = 0.0  # m, circumferential groove: its axial width, < width
     inlet: str = "max-gap"  # "max-gap": ambient pressure along the line of maximum film thickness; "none"
 
     def __post_init__(self) -> None:
@@ -148,8 +169,38 @@ class Bearing:
             raise out_of_range("supply_hole_diameter", self.supply_hole_diameter, "(0, min(width, radius))")
         if self.inlet not in INLETS:
             raise out_of_range("inlet", repr(self.inlet), " or ".join(map(repr, INLETS)))
-        if self.inlet == "max-gap" and self.supply_hole_angle is not None:
-            raise InputError("inlet = 'max-gap' cannot be combined with a supply hole (allowed with a hole: 'none')")
+        if self.groove not in GROOVES:
+            raise out_of_range("groove", repr(self.groove), ", ".join(map(repr, GROOVES)))
+        if self.groove != "none" and self.supply_hole_angle is not None:
+            raise InputError(f"groove = {self.groove!r} with a supply hole (allowed: one oil supply, a hole or a groove)")
+        if self.groove == "axial":
+            if not math.isfinite(self.groove_angle):
+                raise out_of_range("groove_angle", self.groove_angle, "a finite number of rad")
+            if not 0 < self.groove_arc < 2 * math.pi:
+                raise out_of_range("groove_arc", f"{self.groove_arc:g}", "(0, 2 pi) rad")
+            if not 0 < self.groove_length < self.width:
+                raise out_of_range("groove_length", f"{self.groove_length:g}", f"(0, width = {self.width:g}) m")
+        if self.groove == "circumferential" and not 0 < self.groove_width < self.width:
+            raise out_of_range("groove_width", f"{self.groove_width:g}", f"(0, width = {self.width:g}) m")
+        if self.supply is not None:
+            if not self.supply_pressure >= self.cavitation_pressure:  # (also NaN)
+                raise out_of_range("supply_pressure", f"{self.supply_pressure:g}",
+                                   f">= cavitation_pressure = {self.cavitation_pressure:g} Pa gauge")
+            if self.inlet == "max-gap":
+                raise InputError("inlet = 'max-gap' cannot be combined with a supply hole or groove (allowed with a "
+                                 "supply: 'none')")
+
+    @property
+    def supply(self) -> Supply | None:
+        """The oil supply on the film mesh (dimensionless, solver.film.mesh): hole, groove or None."""
+        R = self.radius
+        if self.supply_hole_angle is not None:
+            return SupplyHole(angle=self.supply_hole_angle, diameter=self.supply_hole_diameter / R)
+        if self.groove == "axial":
+            return AxialGroove(angle=self.groove_angle, arc=self.groove_arc, length=self.groove_length / R)
+        if self.groove == "circumferential":
+            return CircumferentialGroove(width=self.groove_width / R)
+        return None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -198,6 +249,7 @@ class FilmResult:
     iterations: int  # Newton (VI) iterations
     solve_time: float  # s, wall time of the solve (assembly + VI)
     sigma: float = 0.0  # m, composite roughness (0: smooth)
+    supply_flow: float = 0.0  # m^3/s, flow from the supply hole or groove into the film (0: no supply)
     max_deformation: float = 0.0  # m, the bushing's largest radial deformation (signed, + opens the gap; 0: rigid)
     max_deformation_theta: float = 0.0  # rad, its bushing angle
 
@@ -326,7 +378,7 @@ class FilmModel:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
             if isinstance(elastic, ModalCompliance) and bearing.inlet == "max-gap":
                 raise InputError("elastic = 'fe' cannot be combined with inlet = 'max-gap' (it turns the film "
-                                 "against the eye; allowed: 'none' or 'hole')")
+                                 "against the eye; allowed: 'none', with or without a supply)")
         self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
                                  omega_ref=omega_ref)
         if degree not in (1, 2):
@@ -336,15 +388,12 @@ class FilmModel:
             raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
         self.sigma = sigmas[0] if sigmas else 0.0
         R = bearing.radius
-        hole = None
-        if bearing.supply_hole_angle is not None:
-            hole = SupplyHole(angle=bearing.supply_hole_angle, diameter=bearing.supply_hole_diameter / R)
-        # aligned surfaces, edges at the same pressure, a hole on the mid-plane: the film is symmetric
-        # about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and every
-        # integral over the film is doubled (solver.film.mesh)
+        # aligned surfaces, edges at the same pressure, a supply on the mid-plane: the film is
+        # symmetric about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and
+        # every integral over the film is doubled (solver.film.mesh)
         if mesh_size is None:
             mesh_size = default_mesh_size(bearing.width, R)
-        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, hole=hole, half=half)
+        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, supply=bearing.supply, half=half)
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
@@ -525,17 +574,28 @@ class FilmModel:
         self._w_gradient_rows = [i for i, _, _ in w_gradients]
         self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients])
         self._explicit = _functionals_by_group(self.mesh, explicit, groups)
-        # Side flow: the consistent boundary flux, r(P; w) with w = 1 on the edge dofs (module doc).
-        self._edge_indicator = fem.Function(self.V)
+        # Side and supply flows: the consistent flux r(P; w) with w = 1 on the edge / supply dofs (module doc).
         edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
-        edge_dofs = fem.locate_dofs_topological(self.V, 1, edges)
-        self._edge_indicator.x.array[edge_dofs] = 1.0
-        # w vanishes outside the cells that touch an edge: integrate over those cells only.
-        self.mesh.topology.create_connectivity(1, 2)
-        edge_cells = np.unique(mesh_entities_to_cells(self.mesh, edges))
-        cell_marker = meshtags(self.mesh, 2, edge_cells.astype(np.int32), np.ones(len(edge_cells), dtype=np.int32))
-        dx_edge = ufl.dx(domain=self.mesh, subdomain_data=cell_marker, subdomain_id=1, metadata=dx.metadata())
-        self._side_flow_form = _form(whole * ufl.replace(residual, {v: self._edge_indicator}) * dx_edge)
+        self._side_flow_form = self._flux_form(fem.locate_dofs_topological(self.V, 1, edges), residual, v, dx)
+        self._supply_flow_form = None
+        if self.mesh_spec.supply is not None:
+            supply_dofs = fem.locate_dofs_topological(self.V, 2, self.cell_tags.find(TAGS["supply"]))
+            self._supply_flow_form = self._flux_form(supply_dofs, residual, v, dx)
+
+    def _flux_form(self, dofs: np.ndarray, residual, v, dx):
+        """The compiled form of ``r(P; w)`` over the whole film, w = 1 on ``dofs`` (local) and 0 elsewhere:
+        the flow that the discrete equation lets through those dofs (the sum of their residuals).
+
+        w vanishes outside the cells that have one of the dofs, so only those cells are integrated
+        (every cell with such a dof: also those that touch the dofs' boundary at a vertex only)."""
+        indicator = fem.Function(self.V)
+        indicator.x.array[dofs] = 1.0
+        cell_dofs = self.V.dofmap.list.array.reshape(-1, self.V.dofmap.dof_layout.num_dofs)
+        cells = np.flatnonzero(indicator.x.array[cell_dofs].any(axis=1)).astype(np.int32)
+        marker = meshtags(self.mesh, 2, cells, np.ones(len(cells), dtype=np.int32))
+        dx_cells = ufl.dx(domain=self.mesh, subdomain_data=marker, subdomain_id=1, metadata=dx.metadata())
+        whole = float(self.mesh_spec.multiplicity)
+        return _form(whole * ufl.replace(residual, {v: indicator}) * dx_cells)
 
     def _boundary_conditions(self) -> list:
         fdim = 1
@@ -546,7 +606,7 @@ class FilmModel:
             x = self.V.tabulate_dof_coordinates()
             seam = np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32)
             bcs.append(fem.dirichletbc(ambient, seam))
-        if self.bearing.supply_hole_angle is not None:
+        if self.mesh_spec.supply is not None:  # hole or groove: the dofs of the supply cells
             supply = fem.Function(self.V)
             supply.x.array[:] = self._reduced(self.bearing.supply_pressure) / self.scales.pressure
             cells = self.cell_tags.find(TAGS["supply"])
@@ -567,8 +627,8 @@ class FilmModel:
         if self._ehd is None:
             return
         if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
-            raise InputError("an elastic bushing's deformation rate needs inlet 'none' or 'hole' (allowed with "
-                             "'max-gap': quasi-static solves only)")
+            raise InputError("an elastic bushing's deformation rate needs inlet 'none', with or without a supply "
+                             "(allowed with 'max-gap': quasi-static solves only)")
         earlier = [entry for entry in self._history if entry[0] < time_s]
         self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
 
@@ -721,6 +781,7 @@ class FilmModel:
             asperity_torque_journal=values.get("asperity_torque_journal", 0.0),
             asperity_normal_force=asperity_normal, contact_area_ratio=contact_area, asperity_p_max=asperity_p_max,
             side_flow=-self._assemble(self._side_flow_form) * s.flow,
+            supply_flow=self._assemble(self._supply_flow_form) * s.flow if self._supply_flow_form is not None else 0.0,
             iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
             max_deformation=deformation[0], max_deformation_theta=deformation[1])
 

@@ -1,7 +1,7 @@
 """The film mesh: the bearing surface as a cylinder in 3D, meshed by gmsh, read into dolfinx.
 
 The mesh is dimensionless: radius 1 and width ``B/R``, centred on z = 0, so that it depends only on
-the width-to-radius ratio, the element size and the optional supply hole. It is a 2D manifold in 3D
+the width-to-radius ratio, the element size and the optional oil supply. It is a 2D manifold in 3D
 (triangles), which makes the film periodic in the circumferential direction without constraints:
 the seam of the cylinder is an ordinary interior edge of the mesh.
 
@@ -10,8 +10,11 @@ Named physical groups (``TAGS``):
 - ``film`` (cells): the bearing surface,
 - ``edge_minus`` / ``edge_plus`` (facets): the circles at z = -B/2 and z = +B/2 (ambient pressure),
 - ``mid_plane`` (facets, half meshes only): the circle at z = 0,
-- ``supply`` (cells, optional): an oil hole, a disc of given diameter on the surface, held at the
-  supply pressure.
+- ``supply`` (cells, optional): the oil supply, held at the supply pressure: a round hole
+  (``SupplyHole``, a disc on the surface), a rectangular axial groove (``AxialGroove``: an arc of the
+  circumference times an axial length, centred on the mid-plane) or a full circumferential groove
+  (``CircumferentialGroove``: a band of given axial width all the way round, centred on the
+  mid-plane). The supply is cut into the gmsh geometry, so element edges follow its boundary.
 
 The bushing angle theta is measured from the bushing x axis toward its y axis, so a mesh point is
 (cos theta, sin theta, z/R). The mesh is made by gmsh on rank 0 of the given communicator and
@@ -20,7 +23,7 @@ distributed over it (``dolfinx.io.gmshio.model_to_mesh``).
 ``half=True`` meshes only the half z >= 0 (the film of aligned surfaces with edges at the same
 pressure is symmetric about the mid-plane: zero axial flux there is the natural condition of the
 weak form, so nothing has to be imposed); integrals over the whole film are twice those over it.
-A supply hole must then be centred on the mid-plane.
+A supply hole must then be centred on the mid-plane (the grooves always are).
 """
 
 from __future__ import annotations
@@ -32,10 +35,9 @@ import math
 from mpi4py import MPI
 
 import gmsh
-import numpy as np
 from dolfinx.io import gmshio
 
-from solver.errors import out_of_range
+from solver.errors import InputError, out_of_range
 
 TAGS = {"film": 1, "supply": 2, "edge_minus": 11, "edge_plus": 12, "mid_plane": 13}
 
@@ -48,6 +50,79 @@ class SupplyHole:
     z: float = 0.0  # axial position of the centre / R
     diameter: float = 0.2  # hole diameter / R
 
+    @property
+    def rim_size(self) -> float:
+        """Element size / R at the rim: six elements across the diameter."""
+        return self.diameter / 6
+
+    def check(self, width: float, half: bool) -> None:
+        """Raise InputError unless the hole fits on a film of width ``width`` (/ R)."""
+        if not 0 < self.diameter < min(width, math.pi):
+            raise out_of_range("supply hole diameter / radius", self.diameter, f"(0, {min(width, math.pi):.3g})")
+        if not abs(self.z) + self.diameter / 2 < width / 2:
+            raise out_of_range("supply hole axial position / radius", self.z, "inside the bearing width")
+        if half and self.z != 0.0:
+            raise out_of_range("supply hole axial position / radius", self.z, "0 on a half mesh")
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class AxialGroove:
+    """A rectangular axial oil groove on the bushing surface, centred on the mid-plane (dimensionless).
+
+    It covers the bushing angles ``angle - arc/2 <= theta <= angle + arc/2`` and ``|z| <= length/2``:
+    area ``arc * length`` (R^2) on the cylinder.
+    """
+
+    angle: float  # rad, bushing angle theta of the groove's centre
+    arc: float  # rad, its circumferential extent, in (0, 2 pi)
+    length: float  # its axial length / R, < B/R
+
+    @property
+    def area(self) -> float:
+        """Its area on the unit cylinder."""
+        return self.arc * self.length
+
+    @property
+    def rim_size(self) -> float:
+        """Element size / R at the rim: four elements along its shorter side."""
+        return min(self.arc, self.length) / 4
+
+    def check(self, width: float, half: bool) -> None:
+        """Raise InputError unless the groove fits on a film of width ``width`` (/ R)."""
+        if not math.isfinite(self.angle):
+            raise out_of_range("axial groove angle", self.angle, "a finite number of rad")
+        if not 0 < self.arc < 2 * math.pi:
+            raise out_of_range("axial groove arc", f"{math.degrees(self.arc):g} deg", "(0, 360) deg")
+        if not 0 < self.length < width:
+            raise out_of_range("axial groove length / radius", f"{self.length:g}", f"(0, {width:g}), inside the bearing width")
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class CircumferentialGroove:
+    """A full circumferential oil groove: the band ``|z| <= width/2`` all the way round (dimensionless),
+    area ``2 pi width`` (R^2) on the cylinder."""
+
+    width: float  # its axial width / R, < B/R
+
+    @property
+    def area(self) -> float:
+        """Its area on the unit cylinder."""
+        return 2 * math.pi * self.width
+
+    @property
+    def rim_size(self) -> float:
+        """Element size / R at its two rims: four elements across the band."""
+        return self.width / 4
+
+    def check(self, width: float, half: bool) -> None:
+        """Raise InputError unless the band fits on a film of width ``width`` (/ R)."""
+        if not 0 < self.width < width:
+            raise out_of_range("circumferential groove width / radius", f"{self.width:g}",
+                               f"(0, {width:g}), inside the bearing width")
+
+
+Supply = SupplyHole | AxialGroove | CircumferentialGroove
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class FilmMeshSpec:
@@ -55,7 +130,7 @@ class FilmMeshSpec:
 
     width: float  # B/R
     element_size: float = 0.05  # target element edge length / R
-    hole: SupplyHole | None = None
+    supply: Supply | None = None  # the oil supply, tagged ``supply`` (None: none)
     order: int = 1  # geometry order of the triangles (1 or 2)
     half: bool = False  # mesh only z >= 0 (symmetric film, see the module docstring)
 
@@ -66,13 +141,11 @@ class FilmMeshSpec:
             raise out_of_range("mesh size (element size / radius)", self.element_size, "(0, 1]")
         if self.order not in (1, 2):
             raise out_of_range("mesh order", self.order, "1 or 2")
-        if self.hole is not None:
-            if not 0 < self.hole.diameter < min(self.width, math.pi):
-                raise out_of_range("supply hole diameter / radius", self.hole.diameter, f"(0, {min(self.width, math.pi):.3g})")
-            if not abs(self.hole.z) + self.hole.diameter / 2 < self.width / 2:
-                raise out_of_range("supply hole axial position / radius", self.hole.z, "inside the bearing width")
-            if self.half and self.hole.z != 0.0:
-                raise out_of_range("supply hole axial position / radius", self.hole.z, "0 on a half mesh")
+        if self.supply is not None:
+            if not isinstance(self.supply, Supply):
+                raise InputError(f"supply = {self.supply!r} is not a supply (allowed: SupplyHole, AxialGroove, "
+                                 "CircumferentialGroove)")
+            self.supply.check(self.width, self.half)
 
     @property
     def multiplicity(self) -> int:
@@ -80,34 +153,57 @@ class FilmMeshSpec:
         return 2 if self.half else 1
 
 
+def _supply_tool(occ, supply: Supply) -> tuple[int, float, float]:
+    """A solid whose intersection with the film surface is the supply; returns (its tag, and the
+    axial range [z_low, z_high] that the supply's piece of the surface lies in)."""
+    if isinstance(supply, SupplyHole):  # a radial cylinder through the wall
+        direction = (math.cos(supply.angle), math.sin(supply.angle))
+        tool = occ.addCylinder(0.5 * direction[0], 0.5 * direction[1], supply.z, direction[0], direction[1], 0.0,
+                               supply.diameter / 2)
+        return tool, supply.z - supply.diameter / 2, supply.z + supply.diameter / 2
+    # grooves: a sector of angle arc (axial) or a whole cylinder (circumferential), of radius 2 and
+    # axial range |z| <= extent/2 (on a half mesh its lower half lies below the film)
+    extent = supply.length if isinstance(supply, AxialGroove) else supply.width
+    if isinstance(supply, AxialGroove):  # the sector starts at the x axis: turned to start at angle - arc/2
+        tool = occ.addCylinder(0.0, 0.0, -extent / 2, 0.0, 0.0, extent, 2.0, angle=supply.arc)
+        occ.rotate([(3, tool)], 0, 0, 0, 0, 0, 1, supply.angle - supply.arc / 2)
+    else:
+        tool = occ.addCylinder(0.0, 0.0, -extent / 2, 0.0, 0.0, extent, 2.0)
+    return tool, -extent / 2, extent / 2
+
+
 def _build_gmsh_model(spec: FilmMeshSpec) -> None:
     """Build the surface, physical groups and mesh in the current gmsh model."""
     occ = gmsh.model.occ
     half = spec.width / 2
     z_start = 0.0 if spec.half else -half
-    # The seam of the extruded circle lies at theta = 0; a hole is kept away from it by rotating
-    # the circle so that the seam is opposite the hole.
-    seam = (spec.hole.angle + math.pi) if spec.hole is not None else 0.0
+    supply = spec.supply
+    # The seam of the extruded circle lies at theta = 0; a hole or an axial groove is kept away from
+    # it by rotating the circle so that the seam is opposite the supply.
+    seam = (supply.angle + math.pi) if isinstance(supply, (SupplyHole, AxialGroove)) else 0.0
     circle = occ.addCircle(0.0, 0.0, z_start, 1.0, angle1=0.0, angle2=2 * math.pi)
     occ.rotate([(1, circle)], 0, 0, 0, 0, 0, 1, seam)
     extruded = occ.extrude([(1, circle)], 0.0, 0.0, half - z_start)
     surfaces = [tag for dim, tag in extruded if dim == 2]
     supply_surfaces: list[int] = []
-    if spec.hole is not None:
-        h = spec.hole
-        direction = (math.cos(h.angle), math.sin(h.angle), 0.0)
-        tool = occ.addCylinder(0.5 * direction[0], 0.5 * direction[1], h.z, direction[0], direction[1], 0.0, h.diameter / 2)
+    if supply is not None:
+        tool, z_low, z_high = _supply_tool(occ, supply)
         out, pieces = occ.fragment([(2, s) for s in surfaces], [(3, tool)])
         film_pieces = [tag for dim, tag in pieces[0]]
         occ.synchronize()
         occ.remove([(d, t) for d, t in out if d == 3], recursive=False)
         occ.remove([(d, t) for d, t in gmsh.model.getEntities(2) if t not in film_pieces], recursive=True)
         occ.synchronize()
-        # The piece inside the tool cylinder is the hole: the one whose centre of mass is nearest.
-        centre = np.array([direction[0], direction[1], h.z])
-        distance = [np.linalg.norm(np.array(occ.getCenterOfMass(2, t)) - centre) for t in film_pieces]
-        supply_surfaces = [film_pieces[int(np.argmin(distance))]]
+        # The supply's pieces lie inside its axial range; the rest of the film reaches the edge at
+        # z = B/2, outside it (every supply ends inside the width).
+        tol = 1e-6
+        for t in film_pieces:
+            bbox = gmsh.model.getBoundingBox(2, t)
+            if bbox[2] >= z_low - tol and bbox[5] <= z_high + tol:
+                supply_surfaces.append(t)
         surfaces = [t for t in film_pieces if t not in supply_surfaces]
+        if not supply_surfaces or not surfaces:
+            raise RuntimeError(f"gmsh did not cut the supply {supply} out of the film surface")
     occ.synchronize()
     edges: dict[str, list[int]] = {"edge_minus": [], "edge_plus": [], "mid_plane": []}
     for dim, tag in gmsh.model.getEntities(1):
@@ -127,10 +223,10 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         gmsh.model.setPhysicalName(1, TAGS[name], name)
     gmsh.option.setNumber("Mesh.CharacteristicLengthMin", spec.element_size)
     gmsh.option.setNumber("Mesh.CharacteristicLengthMax", spec.element_size)
-    if spec.hole is not None:  # resolve the hole's rim
-        gmsh.option.setNumber("Mesh.CharacteristicLengthMin", min(spec.element_size, spec.hole.diameter / 6))
-        gmsh.model.mesh.setSize(gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True),
-                                min(spec.element_size, spec.hole.diameter / 6))
+    if supply is not None:  # resolve the supply's rim
+        rim = min(spec.element_size, supply.rim_size)
+        gmsh.option.setNumber("Mesh.CharacteristicLengthMin", rim)
+        gmsh.model.mesh.setSize(gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True), rim)
     gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
     gmsh.model.mesh.generate(2)
     if spec.order == 2:
@@ -173,4 +269,4 @@ def film_mesh(spec: FilmMeshSpec, comm: MPI.Comm):
     return mesh, cell_tags, facet_tags
 
 
-__all__ = ["TAGS", "FilmMeshSpec", "SupplyHole", "film_mesh"]
+__all__ = ["TAGS", "AxialGroove", "CircumferentialGroove", "FilmMeshSpec", "Supply", "SupplyHole", "film_mesh"]

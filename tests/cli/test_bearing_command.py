@@ -51,6 +51,19 @@ def _replace(args, flag, value):
     (GOOD + ["--eccentricity", "0.5", "--elastic", "fe", "--bushing-thickness", "1.5e-3", "--eye-outer-radius",
              "0.017"], "--inlet"),
     (GOOD + ["--eccentricity", "0.5", "--pressure-viscosity", "1"], "--pressure-viscosity"),
+    (GOOD + ["--eccentricity", "0.5", "--groove-angle", "90", "--groove-arc", "30"], "--groove-length"),
+    (GOOD + ["--eccentricity", "0.5", "--groove-angle", "90", "--groove-arc", "360", "--groove-length", "0.01"],
+     "--groove-arc"),
+    (GOOD + ["--eccentricity", "0.5", "--groove-angle", "90", "--groove-arc", "30", "--groove-length", "0.02"],
+     "--groove-length"),
+    (GOOD + ["--eccentricity", "0.5", "--circumferential-groove", "0.02"], "--circumferential-groove"),
+    (GOOD + ["--eccentricity", "0.5", "--circumferential-groove", "0.003", "--hole-angle", "0", "--hole-diameter",
+             "0.002"], "two oil supplies"),
+    (GOOD + ["--eccentricity", "0.5", "--circumferential-groove", "0.003", "--inlet", "max-gap"], "--inlet"),
+    (GOOD + ["--eccentricity", "0.5", "--supply-pressure", "1e5"], "--supply-pressure"),
+    (GOOD + ["--eccentricity", "0.5", "--circumferential-groove", "0.003", "--supply-pressure", "-1"],
+     "--supply-pressure"),
+    (GOOD + ["--eccentricity", "0.5", "--hole-angle", "0", "--hole-diameter", "0.015"], "--hole-diameter"),
 ])
 def test_bad_input_is_one_line_exit_2(args, names):
     proc = run_cli("bearing", *args)
@@ -77,6 +90,36 @@ def test_json_output_keys_and_values(tempdir):
     assert report["h_min_m"] == pytest.approx(10e-6 * (1 - report["eccentricity"]), rel=1e-9)
     for name in ("bearing_pressure.xdmf", "bearing_pressure.h5", "bearing_pressure.png", "bearing.json"):
         assert (tempdir / name).stat().st_size > 0
+
+
+@pytest.mark.serial
+def test_circumferential_groove_reports_poiseuille_flows():
+    """A concentric journal with a 3 mm circumferential groove at 3 bar: the JSON's supply and side flows
+    are equal (1e-10: the discrete balance, no source at eps = 0) and the exact Poiseuille flow of the two
+    lands, 2 * 2 pi R c^3 p_s / (12 mu (B - w)/2), to h^2/12 = 8.3e-4 at --mesh-size 0.1 (the faceted
+    cylinder's error, tests/film/test_oil_supply.py; measured -4.5e-4)."""
+    proc = run_cli("bearing", *GOOD, "--eccentricity", "0", "--circumferential-groove", "3e-3", "--supply-pressure",
+                   "3e5", "--json", "--mesh-size", "0.1")
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    assert report["inlet"] == "none" and report["supply"] == "circumferential-groove"
+    assert report["supply_pressure_Pa"] == 3e5 and report["p_max_Pa"] == pytest.approx(3e5, rel=1e-12)
+    Q = 2 * 2 * math.pi * 0.01 * 10e-6**3 * 3e5 / (12 * 0.01 * (0.02 - 3e-3) / 2)
+    assert report["side_flow_m3_per_s"] == pytest.approx(Q, rel=0.1**2 / 12)
+    assert report["supply_flow_m3_per_s"] == pytest.approx(report["side_flow_m3_per_s"], rel=1e-10)
+
+
+@pytest.mark.serial
+def test_axial_groove_under_a_load():
+    """--load with an axial groove at the top (the load acts downwards): the load is carried, the supply
+    delivers oil (a positive supply flow) and, the film cavitating, less than the side flow (the rest is
+    the oil the Reynolds condition creates in the cavitated zone; solver.film.bearing)."""
+    proc = run_cli("bearing", *GOOD, "--load", "1000", "--groove-angle", "90", "--groove-arc", "30", "--groove-length",
+                   "0.012", "--supply-pressure", "3e5", "--json", "--mesh-size", "0.1")
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    assert report["supply"] == "axial-groove" and report["load_N"] == pytest.approx(1000, rel=1e-6)
+    assert 0 < report["supply_flow_m3_per_s"] < report["side_flow_m3_per_s"]
 
 
 ROUGH = ["--sigma-journal", "0.1e-6", "--sigma-bushing", "0.3e-6"]

@@ -12,7 +12,7 @@ import ufl
 from dolfinx import fem
 
 from solver.errors import InputError
-from solver.film.mesh import TAGS, FilmMeshSpec, SupplyHole, film_mesh
+from solver.film.mesh import TAGS, AxialGroove, CircumferentialGroove, FilmMeshSpec, SupplyHole, film_mesh
 
 
 def _integrate(mesh, expr, measure):
@@ -24,7 +24,7 @@ def test_mesh_area_edges_and_hole(comm):
     """Area of the faceted cylinder vs 2 pi B/R (chord error ~h^2/12 -> tolerance 1e-3 at h = 0.05);
     edge length vs 2 pi on each edge (same error); the supply hole's area vs pi d^2/4 (the rim is
     polygonal and the disc curved: 3 %)."""
-    spec = FilmMeshSpec(width=1.5, element_size=0.05, hole=SupplyHole(angle=2.0, z=0.1, diameter=0.4))
+    spec = FilmMeshSpec(width=1.5, element_size=0.05, supply=SupplyHole(angle=2.0, z=0.1, diameter=0.4))
     mesh, cell_tags, facet_tags = film_mesh(spec, comm)
     one = fem.Constant(mesh, 1.0)
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
@@ -47,7 +47,7 @@ def test_half_mesh_covers_z_above_the_mid_plane(comm):
     """The half mesh: area pi B/R (half the cylinder, same chord error as above: 1e-3), the outer edge
     and the mid-plane circle each 2 pi long, no edge at z = -B/2, every node at z >= 0, and a hole on
     the mid-plane cut in half (half the disc area, 3 % for its polygonal rim)."""
-    spec = FilmMeshSpec(width=1.5, element_size=0.05, hole=SupplyHole(angle=2.0, diameter=0.4), half=True)
+    spec = FilmMeshSpec(width=1.5, element_size=0.05, supply=SupplyHole(angle=2.0, diameter=0.4), half=True)
     mesh, cell_tags, facet_tags = film_mesh(spec, comm)
     one = fem.Constant(mesh, 1.0)
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
@@ -61,9 +61,50 @@ def test_half_mesh_covers_z_above_the_mid_plane(comm):
     assert _integrate(mesh, one, dx(TAGS["supply"])) == pytest.approx(0.5 * math.pi * 0.2**2, rel=0.03)
 
 
+GROOVES = [AxialGroove(angle=2.0, arc=math.radians(40), length=0.8),
+           AxialGroove(angle=-1.0, arc=math.radians(350), length=0.3),  # nearly all round: a thin land at the seam
+           CircumferentialGroove(width=0.3)]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("half", [False, True])
+@pytest.mark.parametrize("groove", GROOVES, ids=["axial-40deg", "axial-350deg", "circumferential"])
+def test_groove_cells_are_the_groove(comm, groove, half):
+    """The cells tagged ``supply`` are the groove: their area is its area on the cylinder (arc x length,
+    or 2 pi x width; halved on a half mesh) to the chord error of the faceted surface, 1 - sin(D/2)/(D/2)
+    ~ D^2/24 for an edge spanning the angle D <= sqrt(2) h, bounded by h^2/12 = 2.1e-4 at h = 0.05 (the
+    whole film's area has the same error); and the element edges follow its boundary: every vertex of a
+    supply cell lies inside the groove (1e-9), so the two areas can only agree if the cells fill it."""
+    h = 0.05
+    spec = FilmMeshSpec(width=1.5, element_size=h, supply=groove, half=half)
+    mesh, cell_tags, _ = film_mesh(spec, comm)
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
+    area = _integrate(mesh, fem.Constant(mesh, 1.0), dx(TAGS["supply"]))
+    assert area == pytest.approx(groove.area / spec.multiplicity, rel=h**2 / 12)
+    assert _integrate(mesh, fem.Constant(mesh, 1.0), dx) == pytest.approx(2 * math.pi * 1.5 / spec.multiplicity,
+                                                                          rel=h**2 / 12)
+    cells = cell_tags.find(TAGS["supply"])
+    x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[cells]].reshape(-1, 3)
+    if isinstance(groove, AxialGroove):
+        offset = np.angle(np.exp(1j * (np.arctan2(x[:, 1], x[:, 0]) - groove.angle)))  # in (-pi, pi]
+        assert np.all(np.abs(offset) <= groove.arc / 2 + 1e-9)
+        assert np.all(np.abs(x[:, 2]) <= groove.length / 2 + 1e-9)
+    else:
+        assert np.all(np.abs(x[:, 2]) <= groove.width / 2 + 1e-9)
+    if half:
+        assert x[:, 2].min(initial=0.0) >= -1e-12
+
+
 @pytest.mark.parametrize("kwargs", [dict(width=0.0), dict(width=1.0, element_size=0.0),
-                                    dict(width=1.0, hole=SupplyHole(angle=0.0, diameter=2.0)),
-                                    dict(width=1.0, hole=SupplyHole(angle=0.0, z=0.1, diameter=0.2), half=True)])
+                                    dict(width=1.0, supply=SupplyHole(angle=0.0, diameter=2.0)),
+                                    dict(width=1.0, supply=SupplyHole(angle=0.0, z=0.1, diameter=0.2), half=True),
+                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=2 * math.pi, length=0.5)),
+                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=0.0, length=0.5)),
+                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=1.0, length=1.0)),
+                                    dict(width=1.0, supply=AxialGroove(angle=math.nan, arc=1.0, length=0.5)),
+                                    dict(width=1.0, supply=CircumferentialGroove(width=1.0)),
+                                    dict(width=1.0, supply=CircumferentialGroove(width=-0.1), half=True)])
 def test_bad_mesh_spec_is_input_error(kwargs):
-    with pytest.raises(InputError, match="out of range"):
+    with pytest.raises(InputError, match="out of range") as caught:
         FilmMeshSpec(**kwargs)
+    assert "\n" not in str(caught.value)
