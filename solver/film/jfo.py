@@ -1,0 +1,371 @@
+"""Mass-conserving cavitation (JFO, Elrod-Adams): one nodal unknown, semismooth Newton in PETSc SNES.
+
+Equation (DESIGN 8), dimensionless as in ``solver.film.scaling`` (smooth surfaces, p_cav the cavitation
+pressure, theta the film fraction)::
+
+    d(theta H)/dT + div Q = f,    Q = -D grad P + theta H U,    D = H^3 (default)
+    P - P_cav >= 0,   1 - theta >= 0,   (P - P_cav)(1 - theta) = 0
+
+with U the mean surface velocity (the Couette transport velocity, U_m t on the bearing) and f an
+optional supply per unit area (manufactured solutions). In the full film theta = 1 and this is the
+Reynolds equation; in the cavitated zone P = P_cav and it is the transport of theta H.
+
+Unknown. One value u per P1 node (Elrod's switch variable, as Woloszynski et al. 2015 obtain by
+swapping the columns of the Fischer-Burmeister Jacobian node by node)::
+
+    P - P_cav = max(u, 0),   theta = 1 + min(u, 0)
+
+so the bounds and the complementarity hold exactly, node by node, whatever the iterate. The discrete
+residual is piecewise linear in u, ``r(u) = K max(u, 0) + T (1 + min(u, 0)) + b``, and Newton's
+method with its generalised Jacobian ``J = K diag(u > 0) + T diag(u <= 0)`` (the Reynolds column of a
+pressurised node, the transport column of a cavitated one) stops at the exact solution of the
+discrete problem once the partition is right. Both K (P1 Reynolds stiffness) and T (upwinded transport
+plus storage) are Z-matrices with zero column sums on a non-obtuse mesh, so every such J (prescribed
+rows replaced by identity rows) is an M-matrix as long as each node is linked to a prescribed node or
+has storage: LU needs no pivoting. The switch ``u > 0`` is invariant under a scaling of P, so the
+pressure and film-fraction scales need not be balanced. From the full film (the default start, whose
+first Newton step is the Reynolds solution without cavitation) the pocketed slider of
+data/jfo_pocket_slider.md takes 4 Newton iterations on 20 to 5120 cells; Fischer-Burmeister on the
+stacked pair (P, theta) takes 11-13 (30-60 with a backtracking line search), needs MUMPS (PETSc's LU
+meets zero pivots) and depends on the relative scaling of P and theta; ``vinewtonrsls`` on the
+stacked pair (P >= P_cav paired with the row 1 - theta) did not converge. Time steps are warm
+started from the last solution; a step that moves a front far takes more iterations, since a
+wrongly cavitated zone is handed back to the full film one node layer per iteration.
+
+Discretisation (the same forms on an interval mesh and on the 2D film surface):
+
+- Poiseuille flow: P1 Galerkin ``K_ij = integral(D grad phi_j . grad phi_i)``.
+- Couette transport, conservative: the Galerkin matrix ``C_ij = -integral(H phi_j U . grad phi_i)``
+  (column sums zero: whatever leaves one node enters its neighbours) with Kuzmin's discrete
+  upwinding ``d_ij = max(0, C_ij, C_ji)`` added as a symmetric, zero-sum edge diffusion. In 1D this
+  is the finite-volume flux ``U H_f theta_upwind`` on the dual cells with H_f the gap *at the face*
+  (the primal cell's gap, integrated by the quadrature inside the cell); the upstream node's gap would
+  misplace reformation behind a step by (1/2)(h1/h0)^3 dx (data/jfo_pocket_slider.md).
+- Storage, lumped: node i holds ``m_i theta_i`` with ``m_i = integral(H phi_i)`` (the gap volume of
+  its dual cell), and ``d(theta H)/dT`` is implicit Euler on that content: ``(m theta - c_old)/dT``
+  with ``c_old`` the previous step's content (``JFOSolution.content``). Without a time step the
+  problem is steady.
+
+Boundary conditions: on given dofs u is prescribed: a value > 0 is P - P_cav (flooded), a value <= 0
+is theta - 1 (a starved inlet). The consistent flux through them, from the unconstrained residual,
+makes the discrete balance exact: inflow - outflow = change of the stored oil + supply, to the
+solver's tolerance.
+
+Not included (yet): flow factors and shear flow (D may be a tensor and U any vector, so phi_x and
+phi_c fit in), piezoviscosity, the elastic film.
+
+What the caller provides: a P1 space, H and U as UFL expressions (D optional), the prescribed dofs by
+name, and per solve the time step and the previous content. Use the solver as a context manager:
+PETSc destructors are collective.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import logging
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+
+from solver.errors import FilmNotConverged
+
+log = logging.getLogger(__name__)
+
+DEFAULT_OPTIONS: dict[str, str | float | int] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",  # full semismooth steps: r is piecewise linear
+    "snes_max_it": 100,
+    "snes_divergence_tolerance": -1.0,  # an iterate far from the solution can have a large residual
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+}
+
+_instance_counter = itertools.count()
+
+
+@dataclasses.dataclass(frozen=True)
+class JFOSolution:
+    """One solve (dimensionless; arrays are the owned nodal values in dof order).
+
+    Attributes:
+        pressure: P - P_cav >= 0.
+        theta: film fraction <= 1.
+        content: oil content m theta of each node's dual cell: the history of the next time step.
+        load: integral of (P - P_cav) over the film.
+        outflow: net outward flux through each named set of prescribed dofs (negative: inflow).
+        iterations: Newton iterations.
+    """
+
+    pressure: np.ndarray
+    theta: np.ndarray
+    content: np.ndarray
+    load: float
+    outflow: dict[str, float]
+    iterations: int
+
+
+class JFOSolver:
+    """Mass-conserving film on a P1 space (see the module docstring).
+
+    Args:
+        V: scalar P1 function space (interval or surface mesh).
+        H: film thickness (UFL expression; steps of H should lie on nodes).
+        U: Couette transport velocity (UFL vector of the mesh's geometric dimension).
+        prescribed: name -> (dofs, value) of u on those dofs (value > 0: P - P_cav; <= 0: theta - 1).
+        D: Poiseuille coefficient (scalar or tensor), default H^3.
+        f: supply per unit area (UFL scalar), default none.
+        quadrature_degree: of all the forms (None: UFL's estimate).
+        options: PETSc options merged over ``DEFAULT_OPTIONS``.
+    """
+
+    def __init__(self, V: fem.FunctionSpace, H, U, prescribed: dict[str, tuple[np.ndarray, float]], *,
+                 D=None, f=None, quadrature_degree: int | None = None, options: dict | None = None):
+        self.V = V
+        self.comm = V.mesh.comm
+        metadata = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
+        dx = ufl.dx(domain=V.mesh, metadata=metadata)
+        w, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        D = H**3 if D is None else D
+        self._K_form = fem.form(ufl.inner(D * ufl.grad(w), ufl.grad(v)) * dx)
+        self._C_form = fem.form(-w * H * ufl.inner(U, ufl.grad(v)) * dx)
+        self._m_form = fem.form(H * v * dx)
+        self._f_form = None if f is None else fem.form(f * v * dx)
+        self.u = fem.Function(V, name="u")
+        # a cold start from the full film: the first Newton step is the Reynolds solution without
+        # cavitation, and the whole region where it is below P_cav cavitates at once (from u <= 0 the
+        # pressurised zone would grow by one node layer per iteration)
+        self.u.x.array[:] = 1.0
+        self.pressure = fem.Function(V, name="pressure")  # P - P_cav
+        self.theta = fem.Function(V, name="theta")
+        self._load_form = fem.form(self.pressure * dx)
+        self.n_owned = V.dofmap.index_map.size_local
+        self.prescribed = {name: (np.asarray(dofs, dtype=np.int32), float(value))
+                           for name, (dofs, value) in prescribed.items()}
+        bc_dofs = [d[d < self.n_owned] for d, _ in self.prescribed.values()]
+        self._bc_local = np.unique(np.concatenate(bc_dofs)) if bc_dofs else np.zeros(0, dtype=np.int32)
+        self._bc_values = np.zeros(self.n_owned)
+        for dofs, value in self.prescribed.values():
+            self._bc_values[dofs[dofs < self.n_owned]] = value
+        self._bc_global = (self._bc_local + self.u.vector.getOwnershipRange()[0]).astype(PETSc.IntType)
+        self.K = fem_petsc.create_matrix(self._K_form)
+        self.T = fem_petsc.create_matrix(self._C_form)
+        self.m = fem_petsc.create_vector(self._m_form)
+        self.b = self.m.duplicate()  # -c_old/dT - F
+        self.r = self.m.duplicate()
+        self._theta_vec, self._pressure_vec, self._mask = self.m.duplicate(), self.m.duplicate(), self.m.duplicate()
+        self.prefix = f"jfo{next(_instance_counter)}_"
+        self.snes = PETSc.SNES().create(self.comm)
+        self.snes.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": "mumps" if self.comm.size > 1 else "petsc",
+                  **(options or {})}
+        for key, value in merged.items():
+            opts[self.prefix + key] = value
+        self.snes.setFromOptions()
+        for key in merged:  # keep the global options database clean (FESTIM, PETSc issue 1201)
+            opts.delValue(self.prefix + key)
+        self.snes.setFunction(self._residual, self.r)
+        self.update()
+        # the Jacobian and a work matrix with K's pattern (T has the same: both P1 forms on V)
+        self.J, self._work = self.K.duplicate(copy=True), self.K.duplicate(copy=True)
+        self.J.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)  # zeroRows keeps the pattern
+        self.snes.setJacobian(self._jacobian, self.J)
+        self.snes.setConvergenceTest(self._converged)
+        self._partition: np.ndarray | None = None  # u > 0 where the last Jacobian was built
+        self._scale = 1.0  # the flux scale of the current solve (solve)
+        self._Ts: PETSc.Mat | None = None  # T with the storage term of the current solve
+
+    # -- assembly -------------------------------------------------------------------------------
+    def update(self) -> None:
+        """Assemble K, T's Couette part and the nodal gap volumes m (call after H, U or D change)."""
+        for A, form in ((self.K, self._K_form), (self.T, self._C_form)):
+            A.zeroEntries()
+            fem_petsc.assemble_matrix(A, form)
+            A.assemble()
+        _upwind(self.T)
+        with self.m.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self.m, self._m_form)
+        self.m.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+
+    def _set_history(self, dT: float | None, content_old: np.ndarray | None) -> PETSc.Mat:
+        """b = -c_old/dT - F, and the storage m/dT on T's diagonal (returned: T with storage)."""
+        b = np.zeros(self.n_owned)
+        T = self.T.duplicate(copy=True)
+        if dT is not None:
+            c_old = self.m.getArray(readonly=True) if content_old is None else np.asarray(content_old)
+            b -= c_old / dT
+            storage = self.m.copy()
+            storage.scale(1.0 / dT)
+            T.setDiagonal(storage, addv=PETSc.InsertMode.ADD)
+            T.assemble()
+            storage.destroy()
+        if self._f_form is not None:
+            F = fem_petsc.assemble_vector(self._f_form)
+            F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            b -= F.getArray(readonly=True)
+            F.destroy()
+        self.b.setArray(b)
+        return T
+
+    # -- nonlinear residual and its generalised Jacobian ----------------------------------------
+    def _split(self, x: PETSc.Vec) -> np.ndarray:
+        u = x.getArray(readonly=True)
+        self._pressure_vec.setArray(np.maximum(u, 0.0))
+        self._theta_vec.setArray(1.0 + np.minimum(u, 0.0))
+        return u
+
+    def _unconstrained(self, x: PETSc.Vec, r: PETSc.Vec) -> None:
+        """r = K (P - P_cav) + T theta + b: minus the net outflow of each node's dual cell."""
+        self._split(x)
+        self.K.mult(self._pressure_vec, r)
+        self._Ts.multAdd(self._theta_vec, r, r)
+        r.axpy(1.0, self.b)
+
+    def _residual(self, snes, x: PETSc.Vec, r: PETSc.Vec) -> None:
+        self._unconstrained(x, r)
+        if len(self._bc_local):
+            values = r.getArray()
+            values[self._bc_local] = x.getArray(readonly=True)[self._bc_local] - self._bc_values[self._bc_local]
+            r.setArray(values)
+
+    def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        u = x.getArray(readonly=True)
+        self._partition = u > 0.0
+        same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+        self.K.copy(J, structure=same)
+        self._mask.setArray((u > 0.0).astype(float))
+        J.diagonalScale(None, self._mask)
+        self._Ts.copy(self._work, structure=same)
+        self._mask.setArray((u <= 0.0).astype(float))
+        self._work.diagonalScale(None, self._mask)
+        J.axpy(1.0, self._work, structure=same)
+        J.zeroRows(self._bc_global, diag=1.0)
+
+    def _converged(self, snes, iteration: int, norms) -> int:
+        """Converged when the last Newton step kept the partition (pressurised / cavitated) it was
+        computed with: r is linear on that partition, so the step solved r = 0 exactly (up to the
+        LU's round-off, which a residual check against the size of the terms bounds). A warm start
+        that already solves the problem (|r| <= 1e-12 of the flux scale) passes at iteration 0."""
+        fnorm = norms[2]
+        if not np.isfinite(fnorm):
+            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
+        if fnorm <= 1e-12 * self._scale:
+            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+        if iteration > 0 and self._partition is not None:
+            x = snes.getSolution()
+            kept = bool(np.array_equal(x.getArray(readonly=True) > 0.0, self._partition))
+            if self.comm.allreduce(kept, op=MPI.LAND) and fnorm <= 1e-8 * self._terms(x):
+                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE  # (no reason of its own)
+        if iteration >= snes.getTolerances()[3]:
+            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+        return PETSc.SNES.ConvergedReason.ITERATING
+
+    def _terms(self, x: PETSc.Vec) -> float:
+        """|K (P - P_cav)| + |T theta| + |b|: the size of the terms whose sum is the residual."""
+        self._split(x)
+        work = self.r.duplicate()
+        self.K.mult(self._pressure_vec, work)
+        size = work.norm()
+        self._Ts.mult(self._theta_vec, work)
+        size += work.norm() + self.b.norm()
+        work.destroy()
+        return size
+
+    # -- solve ----------------------------------------------------------------------------------
+    def solve(self, dT: float | None = None, content_old: np.ndarray | None = None,
+              start: np.ndarray | None = None) -> JFOSolution:
+        """Solve one (implicit Euler) step, or the steady problem when ``dT`` is None.
+
+        Args:
+            dT: time step (dimensionless); None: steady.
+            content_old: the previous step's ``JFOSolution.content`` (default: full film, m of the
+                current gap).
+            start: initial u (owned values); default: the last solution (the full film, u = 1, at
+                the first solve).
+
+        Raises:
+            FilmNotConverged: SNES stopped without convergence.
+        """
+        self._Ts = self._set_history(dT, content_old)
+        x = self.u.vector
+        if start is not None:
+            x.setArray(start)
+        values = x.getArray()
+        values[self._bc_local] = self._bc_values[self._bc_local]
+        x.setArray(values)
+        # convergence: |r| below 1e-12 of the flux scale, the residual of the film at zero gauge
+        # pressure (theta = 1 inside, the prescribed values on the boundary)
+        reference = x.duplicate()
+        reference.setArray(np.where(np.isin(np.arange(self.n_owned), self._bc_local), values, 0.0))
+        self._unconstrained(reference, self.r)
+        scale = self.r.norm()
+        reference.destroy()
+        self._scale, self._partition = scale, None
+        try:
+            self.snes.solve(None, x)
+            reason, iterations = self.snes.getConvergedReason(), self.snes.getIterationNumber()
+            if reason <= 0:
+                raise FilmNotConverged("mass-conserving film did not converge", reason, iterations)
+            # consistent fluxes: outflow = -r of the unconstrained residual, summed over the set
+            self._unconstrained(x, self.r)
+        finally:
+            self._Ts.destroy()
+            self._Ts = None
+        log.debug("JFO film: %d Newton iterations (SNES reason %d)", iterations, reason)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        u = self.u.x.array
+        self.pressure.x.array[:] = np.maximum(u, 0.0)
+        self.theta.x.array[:] = 1.0 + np.minimum(u, 0.0)
+        r = self.r.getArray(readonly=True)
+        outflow = {name: -self.comm.allreduce(float(np.sum(r[dofs[dofs < self.n_owned]])), op=MPI.SUM)
+                   for name, (dofs, _) in self.prescribed.items()}
+        n = self.n_owned
+        theta = self.theta.x.array[:n].copy()
+        return JFOSolution(pressure=self.pressure.x.array[:n].copy(), theta=theta,
+                           content=self.m.getArray(readonly=True) * theta,
+                           load=self.comm.allreduce(fem.assemble_scalar(self._load_form), op=MPI.SUM),
+                           outflow=outflow, iterations=iterations)
+
+    # -- lifetime -------------------------------------------------------------------------------
+    def close(self) -> None:
+        for obj in (self.snes, self.K, self.T, self.J, self._work, self.m, self.b, self.r, self._theta_vec,
+                    self._pressure_vec, self._mask):
+            obj.destroy()
+
+    def __enter__(self) -> JFOSolver:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _upwind(C: PETSc.Mat) -> None:
+    """Kuzmin's discrete upwinding of the convection matrix C (residual convention, in place).
+
+    Adds the edge diffusion ``d_ij = max(0, C_ij, C_ji)`` (i != j): ``C_ij -= d_ij``, ``C_ii += d_ij``.
+    It is symmetric with zero row and column sums, so the scheme stays conservative, and afterwards
+    every off-diagonal entry is <= 0 (the upwind flux). Needs a structurally symmetric pattern (P1).
+    """
+    Ct = C.transpose(PETSc.Mat())
+    indptr, cols, values = C.getValuesCSR()
+    indptr_t, cols_t, values_t = Ct.getValuesCSR()
+    if not (np.array_equal(indptr, indptr_t) and np.array_equal(cols, cols_t)):
+        raise ValueError("discrete upwinding needs a structurally symmetric matrix")
+    start = C.getOwnershipRange()[0]
+    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr)) + start
+    off = cols != rows
+    d = np.where(off, np.maximum(0.0, np.maximum(values, values_t)), 0.0)
+    upwinded = values - d
+    row_sums = np.add.reduceat(d, indptr[:-1]) if len(d) else np.zeros(0)
+    row_sums[np.diff(indptr) == 0] = 0.0
+    upwinded[~off] += row_sums[rows[~off] - start]
+    C.setValuesCSR(indptr, cols, upwinded)
+    C.assemble()
+    Ct.destroy()
