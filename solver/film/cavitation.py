@@ -133,6 +133,21 @@ class FixedPatternLU:
             obj.destroy()
 
 
+def configured_snes(comm, stem: str, options: dict) -> PETSc.SNES:
+    """A new SNES with its own options prefix (``stem`` and a counter), set from ``options``; the global
+    options database is left clean (FESTIM, PETSc issue 1201)."""
+    snes = PETSc.SNES().create(comm)
+    prefix = f"{stem}{next(_instance_counter)}_"
+    snes.setOptionsPrefix(prefix)
+    opts = PETSc.Options()
+    for key, value in options.items():
+        opts[prefix + key] = value
+    snes.setFromOptions()
+    for key in options:
+        opts.delValue(prefix + key)
+    return snes
+
+
 def _lu_package(comm) -> str:
     """MUMPS in parallel; PETSc's own LU in serial (faster for these small 2D problems)."""
     if comm.size > 1:
@@ -171,16 +186,8 @@ class CavitatingSolver:
             dofs = bc.dof_indices()[0]
             self.lower.x.array[dofs] = np.minimum(self.lower.x.array[dofs], bc.g.x.array[dofs] if hasattr(bc.g, "x") else lower)
         self.lower.x.scatter_forward()
-        self.prefix = f"film{next(_instance_counter)}_"
-        self.snes = PETSc.SNES().create(self.comm)
-        self.snes.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
         merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": _lu_package(self.comm), **(options or {})}
-        for key, value in merged.items():
-            opts[self.prefix + key] = value
-        self.snes.setFromOptions()
-        for key in merged:  # keep the global options database clean (FESTIM, PETSc issue 1201)
-            opts.delValue(self.prefix + key)
+        self.snes = configured_snes(self.comm, "film", merged)
         self.snes.setFunction(self._residual, self.residual_vec)
         self.snes.setJacobian(self._jacobian, self.A)
         self.snes.setVariableBounds(self.lower.vector, self.upper.vector)

@@ -43,7 +43,6 @@ coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above inclu
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import logging
 import math
 import weakref
@@ -57,13 +56,12 @@ import ufl
 from dolfinx import fem
 
 from solver.errors import FilmNotConverged, out_of_range
-from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU
+from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, configured_snes
 from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads, winkler_coefficient
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
 log = logging.getLogger(__name__)
-_instance_counter = itertools.count()
 
 #: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS):
 #: the reduced-space method, as the rigid film, from a start near the solution (a warm start: 3
@@ -204,15 +202,7 @@ class ElasticFilm:
         self.iterations = 0
 
     def _snes(self, options: dict) -> PETSc.SNES:
-        snes = PETSc.SNES().create(self.comm)
-        prefix = f"ehd{next(_instance_counter)}_"
-        snes.setOptionsPrefix(prefix)
-        opts = PETSc.Options()
-        for key, value in options.items():
-            opts[prefix + key] = value
-        snes.setFromOptions()
-        for key in options:  # keep the global options database clean
-            opts.delValue(prefix + key)
+        snes = configured_snes(self.comm, "ehd", options)
         snes.setFunction(self._residual, self.r)
         snes.setJacobian(self._jacobian, self.A)
         snes.setVariableBounds(self.lower_vec, self.upper_vec)

@@ -62,7 +62,6 @@ PETSc destructors are collective.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import logging
 
 from mpi4py import MPI
@@ -74,6 +73,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 from solver.errors import FilmNotConverged
+from solver.film.cavitation import configured_snes
 
 log = logging.getLogger(__name__)
 
@@ -85,8 +85,6 @@ DEFAULT_OPTIONS: dict[str, str | float | int] = {
     "ksp_type": "preonly",
     "pc_type": "lu",
 }
-
-_instance_counter = itertools.count()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,17 +157,9 @@ class JFOSolver:
         self.b = self.m.duplicate()  # -c_old/dT - F
         self.r = self.m.duplicate()
         self._theta_vec, self._pressure_vec, self._mask = self.m.duplicate(), self.m.duplicate(), self.m.duplicate()
-        self.prefix = f"jfo{next(_instance_counter)}_"
-        self.snes = PETSc.SNES().create(self.comm)
-        self.snes.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
         merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": "mumps" if self.comm.size > 1 else "petsc",
                   **(options or {})}
-        for key, value in merged.items():
-            opts[self.prefix + key] = value
-        self.snes.setFromOptions()
-        for key in merged:  # keep the global options database clean (FESTIM, PETSc issue 1201)
-            opts.delValue(self.prefix + key)
+        self.snes = configured_snes(self.comm, "jfo", merged)
         self.snes.setFunction(self._residual, self.r)
         self.update()
         # the Jacobian and a work matrix with K's pattern (T has the same: both P1 forms on V)
