@@ -16,7 +16,6 @@ Models: rigid; Winkler bushing (1.5 mm bronze); finite-element eye (outer radius
 from __future__ import annotations
 
 import argparse
-import math
 import statistics
 import time
 

@@ -36,8 +36,8 @@ replaces the newest entry of the backward-difference history, the usual projecte
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 import time
+from collections.abc import Callable
 
 import numpy as np
 import scipy.linalg
