@@ -70,7 +70,7 @@ def main() -> None:
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="verify-engine-"))
     base = {"joint": '"mixed-fem"', "max_cycles": args.max_cycles, "mesh_size": args.base_mesh,
-            "step_deg": args.base_step, "rtol": args.base_rtol, "field_angles_deg": "[380]"}
+            "step_deg": args.base_step, "rtol": args.base_rtol, "field_angles_deg": "[]", "field_step_deg": 0}
     variants = {
         "base": (base, ""),
         "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, ""),

@@ -632,6 +632,15 @@ class FilmModel:
         earlier = [entry for entry in self._history if entry[0] < time_s]
         self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
 
+    def start_from(self, state: np.ndarray) -> None:
+        """Make ``state`` (from deformation_state) the next solve's warm start (elastic only): the
+        state one integrator step before is a far better start than a solve of another time."""
+        if self._ehd is None:
+            return
+        n = self._ehd.n
+        self.P.x.array[:n] = state[:n]
+        self._ehd.q = state[n:].copy()
+
     def deformation_history(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first: (time [s], coupled unknowns), copies (for a
         checkpoint: committed again in that order, they restore the deformation's history); [] if rigid."""

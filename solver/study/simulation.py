@@ -54,7 +54,7 @@ from solver.dynamics.engine import CRANK, PISTON, ROD, build_mechanism, engine_f
 from solver.dynamics.integrate import IntegrationError, integrate
 from solver.dynamics.joint import JOINTS, FilmJoint, joint_from_case
 from solver.dynamics.multibody import accelerations, joint_reactions, rotation
-from solver.errors import InputError
+from solver.errors import FilmNotConverged, InputError
 from solver.study import io
 from solver.study import results as results_io
 from solver.study.results import TIMING, RunSummary
@@ -326,7 +326,8 @@ class _Run:
     def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
         """ParaView fields of the last cycle (mixed-fem only): the time series ``film_series.xdmf``
         every ``solver.field_step_deg`` and single snapshots at ``solver.field_angles_deg``; the
-        seconds it took go to ``fields_seconds``."""
+        seconds it took go to ``fields_seconds``. A state whose film cannot be solved again is left
+        out with a warning (the results do not depend on the fields)."""
         if self.model is None:
             return []
         begin = time.perf_counter()
@@ -337,16 +338,24 @@ class _Run:
 
         committed = self.committed
 
-        def solve_at(k: int) -> None:
+        def solve_at(k: int) -> bool:
+            """The film at output k as in the run; False (with a warning) if it cannot be solved again."""
             kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
                              (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
                              float(cols["omega_rel"][k]), 0.0)
-            if k < len(committed) and committed[k] is not None:
-                # elastic bushing: the deformation's rate from the state it started from in the run
-                self.model.commit_deformation(committed[k][1], committed[k][0])
-                self.model.solve(kin, float(cols["time"][k]))
-            else:
-                self.model.solve(kin)
+            try:
+                if k < len(committed) and committed[k] is not None:
+                    # elastic bushing: the deformation's rate from the state it started from in the run,
+                    # which is also the warm start (one integrator step away)
+                    self.model.commit_deformation(committed[k][1], committed[k][0])
+                    self.model.start_from(committed[k][1])
+                    self.model.solve(kin, float(cols["time"][k]))
+                else:
+                    self.model.solve(kin)
+            except FilmNotConverged as err:
+                log.warning("ParaView fields at %.1f deg left out: %s", angles[k], err)
+                return False
+            return True
 
         paths = []
         field_step = math.degrees(self.case.solver.field_step)
@@ -355,16 +364,16 @@ class _Run:
             series = io.FilmSeries(directory, "film_series", self.model)
             try:
                 for k in range(0, len(angles), every):
-                    solve_at(k)
-                    series.write(angles[k])
+                    if solve_at(k):
+                        series.write(angles[k])
                 paths.append(series.close())
             except BaseException:
                 series.abort()
                 raise
         for angle in self.case.solver.field_angles:
             k = int(np.argmin(np.abs(angles - math.degrees(angle))))
-            solve_at(k)
-            paths.append(io.write_film_fields(directory, f"film_{angles[k]:05.1f}deg", self.model))
+            if solve_at(k):
+                paths.append(io.write_film_fields(directory, f"film_{angles[k]:05.1f}deg", self.model))
         self.fields_seconds = time.perf_counter() - begin
         return paths
 

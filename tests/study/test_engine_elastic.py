@@ -26,9 +26,14 @@ T_BUSHING, E_BUSHING, NU_BUSHING = 1.5e-3, 115e9, 0.33  # the reference small en
 @pytest.fixture(scope="module")
 def winkler_run(tmp_path_factory):
     """One cycle of the reference engine with a Winkler bushing: coarse film (0.15 R), 5 deg outputs,
-    a ParaView snapshot at 380 deg whose deformation is recorded as it is written."""
+    a ParaView snapshot at 380 deg whose deformation is recorded as it is written, and one at 390 deg
+    whose film solve is made to fail (FilmNotConverged)."""
+    from solver.errors import FilmNotConverged
+    from solver.film.bearing import FilmModel
+
     case = make_case(tmp_path_factory.mktemp("ehd") / "winkler",
-                     "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\nfield_angles_deg = [380]\n")
+                     "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\n"
+                     "field_angles_deg = [380, 390]\n")
     toml = case / "case.toml"
     text = toml.read_text()
     assert 'elastic = "none"' in text
@@ -40,14 +45,28 @@ def winkler_run(tmp_path_factory):
         snapshots[name] = float(np.max(np.abs(model.fields_si()["deformation"].x.array)))
         return original(directory, name, model)
 
+    starts = []  # FilmModel.start_from is called by write_fields only, once per snapshot
+    start_from, solve = FilmModel.start_from, FilmModel.solve
+
+    def counting(self, state):
+        starts.append(1)
+        return start_from(self, state)
+
+    def failing_second_snapshot(self, kin, time_s=None):
+        if len(starts) == 2:
+            raise FilmNotConverged("made to fail by the test", -5, 0)
+        return solve(self, kin, time_s)
+
     patch = pytest.MonkeyPatch()
     patch.setattr(io, "write_film_fields", recording)
+    patch.setattr(FilmModel, "start_from", counting)
+    patch.setattr(FilmModel, "solve", failing_second_snapshot)
     try:
         summary = run_case(case, MPI.COMM_SELF)
     finally:
         patch.undo()
     with xr.open_dataset(summary.results) as ds:
-        yield ds.load(), snapshots
+        yield ds.load(), snapshots, case
 
 
 @pytest.mark.serial
@@ -55,7 +74,7 @@ def test_the_elastic_small_end_runs_the_firing_cycle_and_carries_the_load(winkle
     """The whole cycle (the run used to stop after firing TDC), the bushing deforming by micrometres
     under the firing load, and the pin force following the ideal one within 5 % of its peak at 90 %
     of the outputs (as the rigid coarse run: the first cycle starts from a centred pin)."""
-    ds, _ = winkler_run
+    ds, _, _ = winkler_run
     assert ds.attrs["status"] == "complete" and ds.attrs["small_end.elastic"] == "winkler"
     assert ds.crank_angle.values[-1] == 720 and np.all(np.isfinite(ds.deformation_max.values))
     assert 0.5e-6 < float(ds.deformation_max.sel(crank_angle=slice(360, 420)).max()) < 10e-6
@@ -69,7 +88,7 @@ def test_the_bushing_follows_the_winkler_law_where_there_is_no_contact(winkler_r
     """Without asperity contact the bushing's deformation is ``k p`` node by node, so its largest value
     is k p_max at the same node: 1e-6 relative (the coupled VI's tolerance), at every output without
     contact (most of the cycle)."""
-    ds, _ = winkler_run
+    ds, _, _ = winkler_run
     k = T_BUSHING * (1 + NU_BUSHING) * (1 - 2 * NU_BUSHING) / (E_BUSHING * (1 - NU_BUSHING))
     free = ds.contact_area_ratio.values == 0
     assert free.mean() > 0.5
@@ -80,8 +99,19 @@ def test_the_bushing_follows_the_winkler_law_where_there_is_no_contact(winkler_r
 def test_the_fields_show_the_runs_deformation(winkler_run):
     """The snapshot at 380 deg solves the film again from the committed state the run's output there
     started from (its deformation's rate): the same deformation as the results (1e-6 relative)."""
-    ds, snapshots = winkler_run
+    ds, snapshots, _ = winkler_run
     assert math.isclose(snapshots["film_380.0deg"], float(ds.deformation_max.sel(crank_angle=380)), rel_tol=1e-6)
+
+
+@pytest.mark.serial
+def test_a_snapshot_that_cannot_be_solved_is_left_out_with_a_warning(winkler_run):
+    """The results do not depend on the fields: a snapshot whose film solve fails is left out, the
+    run finishes, and run.log says which."""
+    ds, snapshots, case = winkler_run
+    assert ds.attrs["status"] == "complete" and "film_390.0deg" not in snapshots
+    assert not (case / "results" / "film_390.0deg.xdmf").exists()
+    assert (case / "results" / "film_380.0deg.xdmf").exists()
+    assert "ParaView fields at 390.0 deg left out: made to fail by the test" in (case / "results" / "run.log").read_text()
 
 
 @pytest.mark.serial
