@@ -646,16 +646,43 @@ class FilmModel:
         checkpoint: committed again in that order, they restore the deformation's history); [] if rigid."""
         return [(time_s, state.copy()) for time_s, state in self._history]
 
-    #: committed states kept: a solve at the time of the last commit takes its rate from the one before
-    HISTORY = 2
+    #: committed states kept: a solve at the time of the last commit takes its rate from the two before
+    HISTORY = 3
+    #: the largest step ratio h / h_previous with which the rate is second order (variable-step BDF2 is
+    #: zero-stable below 1 + sqrt(2)); above it (a step grown fast) the rate is implicit Euler
+    BDF2_MAX_RATIO = 2.4
 
-    def rate_start(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
-        """The committed state a solve at ``time_s`` takes its deformation rate from: the latest one
-        strictly before ``time_s`` (None: quasi-static)."""
+    def rate_history(self, time_s: float | None) -> list[tuple[float, np.ndarray]]:
+        """The committed states a solve at ``time_s`` takes its deformation rate from: the two latest
+        strictly before ``time_s``, oldest first ([]: quasi-static)."""
         if time_s is None:
-            return None
-        earlier = [entry for entry in self._history if entry[0] < time_s]
-        return earlier[-1] if earlier else None
+            return []
+        return [entry for entry in self._history if entry[0] < time_s][-2:]
+
+    def _set_rate(self, time_s: float | None) -> None:
+        """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``: the
+        variable-step BDF2 derivative through the two committed states before ``time_s`` and the
+        unknown W at ``time_s`` (second order in the step),
+        ``dW/dt = [(1 + 2w)/(1 + w) W - (1 + w) W_n + w^2/(1 + w) W_n-1] / h`` with ``h = t - t_n``,
+        ``w = h / (t_n - t_n-1)``; implicit Euler from the last one when there is only one (or w is
+        above BDF2_MAX_RATIO); quasi-static without any."""
+        history = self.rate_history(time_s)
+        self._start = history[-1] if history else None
+        if not history:
+            self._inverse_step.value = 0.0
+            return
+        n, Phi = self._ehd.n, self._ehd.Phi
+        t_n, x_n = history[-1]
+        h = time_s - t_n
+        inverse_step, W_reference = 1.0 / h, Phi @ x_n[n:]
+        if len(history) == 2:
+            t_m, x_m = history[0]
+            w = h / (t_n - t_m)
+            if w <= self.BDF2_MAX_RATIO:
+                inverse_step = (1 + 2 * w) / ((1 + w) * h)
+                W_reference = ((1 + w) * W_reference - w**2 / (1 + w) * (Phi @ x_m[n:])) / (inverse_step * h)
+        self._inverse_step.value = inverse_step / self.scales.omega_ref
+        self._W_previous.x.array[:n] = W_reference
 
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
         """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
@@ -711,21 +738,17 @@ class FilmModel:
     def solve(self, kin: Kinematics, time_s: float | None = None) -> FilmResult:
         """Solve the film for the given kinematics (warm start from the last pressure).
 
-        With an elastic bushing, ``time_s`` [s] puts the deformation's rate in the squeeze term:
-        implicit Euler from the latest state committed (``commit_deformation``) before ``time_s``, so
-        that a state solved again at the time of the last commit keeps its rate; without ``time_s``
-        (or before any commit) the deformation is quasi-static.
+        With an elastic bushing, ``time_s`` [s] puts the deformation's rate in the squeeze term: BDF2
+        through the two latest states committed (``commit_deformation``) before ``time_s`` (implicit
+        Euler after the first commit; ``_set_rate``), so that a state solved again at the time of the
+        last commit keeps its rate; without ``time_s`` (or before any commit) the deformation is
+        quasi-static.
         """
         start = time.perf_counter()
         stats = self.stats
         stats.solves += 1
         if self._ehd is not None:
-            self._start = self.rate_start(time_s)
-            if self._start is None:
-                self._inverse_step.value = 0.0
-            else:
-                self._inverse_step.value = 1.0 / ((time_s - self._start[0]) * self.scales.omega_ref)
-                self._W_previous.x.array[: self._ehd.n] = self._ehd.Phi @ self._start[1][self._ehd.n:]
+            self._set_rate(time_s)
         try:
             result = self._solve(kin, start)
         except FilmNotConverged as err:

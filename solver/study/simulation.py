@@ -101,10 +101,10 @@ class _Run:
         self.steps = 0  # accepted integrator steps so far
         self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
         self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
-        # per output state of the last integrated cycle, the committed state (time, elastic unknowns) its
-        # deformation's rate started from (None: rigid, or quasi-static), for write_fields to solve the
+        # per output state of the last integrated cycle, the committed states (time, elastic unknowns) its
+        # deformation's rate was taken from (None: rigid, or quasi-static), for write_fields to solve the
         # film again as the run did
-        self.committed: list[tuple[float, np.ndarray] | None] = []
+        self.committed: list[list[tuple[float, np.ndarray]] | None] = []
         # the film's oil in the cycles run now: temperature [C] (NaN when the case gives a fixed
         # viscosity) and viscosity [Pa s]; with oil.thermal = "effective" the iteration sets them
         oil, data = case.oil, case.oil.data()
@@ -185,7 +185,7 @@ class _Run:
         """An accepted output state: an elastic bushing's deformation there starts the next rate (it
         replaces the commit of the step that ended there: the output's velocities are the consistent ones)."""
         if self.model is not None and hasattr(self.joint, "commit"):
-            self.committed.append(self.model.rate_start(t))
+            self.committed.append(self.model.rate_history(t) or None)
             self.joint.commit(t)
 
     def _state_outputs(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
@@ -345,10 +345,11 @@ class _Run:
                              float(cols["omega_rel"][k]), 0.0)
             try:
                 if k < len(committed) and committed[k] is not None:
-                    # elastic bushing: the deformation's rate from the state it started from in the run,
-                    # which is also the warm start (one integrator step away)
-                    self.model.commit_deformation(committed[k][1], committed[k][0])
-                    self.model.start_from(committed[k][1])
+                    # elastic bushing: the deformation's rate from the states it was taken from in the run;
+                    # the last of them is also the warm start (one integrator step away)
+                    for time_s, state in committed[k]:
+                        self.model.commit_deformation(state, time_s)
+                    self.model.start_from(committed[k][-1][1])
                     self.model.solve(kin, float(cols["time"][k]))
                 else:
                     self.model.solve(kin)
