@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +18,8 @@ import xarray as xr
 
 from solver.errors import InputError
 from solver.study import io
-from solver.study.results import is_complete
+from solver.study.results import is_complete, nan_reduce
+from solver.study.thermal import cycle_mean
 
 # (variable, label, scale to the plotted unit)
 PANELS = (("h_min", "h_min [um]", 1e6), ("p_max", "p_max [MPa]", 1e-6), ("F_asperity", "asperity force [N]", 1.0),
@@ -45,22 +45,16 @@ def results_path(run: str) -> Path:
     return path
 
 
-def _finite(values: np.ndarray, reduce) -> float:
-    values = np.asarray(values, dtype=float)
-    return float(reduce(values[np.isfinite(values)])) if np.any(np.isfinite(values)) else math.nan
-
-
 def summary(ds: xr.Dataset, label: str) -> dict:
     """The row of one run (SI)."""
     angle = ds.crank_angle.values
-    friction = ds.friction_power.values
-    mean = float(np.trapz(friction, angle) / (angle[-1] - angle[0])) if np.all(np.isfinite(friction)) else math.nan
     deformation = ds["deformation_max"].values if "deformation_max" in ds else np.full(angle.size, np.nan)
     return {"run": label, "elastic": str(ds.attrs.get("small_end.elastic", "none")),
             "piezoviscosity": str(ds.attrs.get("oil.piezoviscosity", "none")),
-            "h_min_min_m": _finite(ds.h_min.values, np.min), "p_max_max_Pa": _finite(ds.p_max.values, np.max),
-            "F_asperity_max_N": _finite(ds.F_asperity.values, np.max), "friction_power_mean_W": mean,
-            "deformation_max_m": _finite(deformation, np.max)}
+            "h_min_min_m": nan_reduce(np.nanmin, ds.h_min.values), "p_max_max_Pa": nan_reduce(np.nanmax, ds.p_max.values),
+            "F_asperity_max_N": nan_reduce(np.nanmax, ds.F_asperity.values),
+            "friction_power_mean_W": cycle_mean(ds.friction_power.values, angle),
+            "deformation_max_m": nan_reduce(np.nanmax, deformation)}
 
 
 def plot(datasets: dict[str, xr.Dataset], path: Path) -> None:

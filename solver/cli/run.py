@@ -49,7 +49,8 @@ def run(args, comm) -> int:
         report = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in report.items()}
         if args.json:  # NaN (e.g. no film with --joint ideal) is null: strict JSON
             print(json.dumps(report))
-        else:
+        else:  # the table leaves out what does not apply to this run (e.g. an isothermal run's heat balance)
             for key, value in report.items():
-                print(f"{key:24s} {value}")
+                if value is not None:
+                    print(f"{key:24s} {value}")
     return 0

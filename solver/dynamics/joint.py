@@ -163,13 +163,15 @@ class ShortBearingJoint(ClearanceJoint):
                 raise out_of_range(name, getattr(self, name), "> 0")
         object.__setattr__(self, "_theta", (np.arange(self.points) + 0.5) * 2 * math.pi / self.points)
 
+    def _wedge_and_squeeze(self, ex, ey, rx, ry, w):
+        """(cos, sin, h, dh/dtheta, g) on the quadrature angles; the film is pressurised where g < 0."""
+        cos, sin = np.cos(self._theta), np.sin(self._theta)
+        dh = ex * sin - ey * cos
+        return cos, sin, self.clearance - ex * cos - ey * sin, dh, 0.5 * w * dh - rx * cos - ry * sin
+
     def _outputs(self, z: np.ndarray) -> np.ndarray:
-        ex, ey, rx, ry, w = z
-        th = self._theta
-        cos, sin = np.cos(th), np.sin(th)
-        h = self.clearance - ex * cos - ey * sin
-        dh = ex * sin - ey * cos  # dh/dtheta
-        g = 0.5 * w * dh - rx * cos - ry * sin
+        w = z[4]
+        cos, sin, h, dh, g = self._wedge_and_squeeze(*z)
         active = np.real(g) < 0
         d = 2 * math.pi / self.points
         mu, B, R = self.viscosity, self.width, self.radius
@@ -195,8 +197,7 @@ class ShortBearingJoint(ClearanceJoint):
         finite = all(math.isfinite(v) for v in (ex, ey, rx, ry, omega_rel))
         if not finite or math.hypot(ex, ey) >= self.clearance:
             return math.nan
-        th = self._theta
-        g = 0.5 * omega_rel * (ex * np.sin(th) - ey * np.cos(th)) - rx * np.cos(th) - ry * np.sin(th)
+        g = self._wedge_and_squeeze(ex, ey, rx, ry, omega_rel)[4]
         return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
 
 

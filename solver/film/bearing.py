@@ -837,9 +837,8 @@ class FilmModel:
         # From the last accepted state, continued in the deformation's rate: with a short step (a large
         # 1/dt) the deformation stays near the accepted one and the solve is easy; 1/dt is then brought
         # down to this step's in factors of RATE_CONTINUATION, each solve starting from the one before.
-        n, target = ehd.n, float(self._inverse_step.value)
-        self.P.x.array[:n] = self._start[1][:n]
-        ehd.q = self._start[1][n:].copy()
+        target = float(self._inverse_step.value)
+        self.start_from(self._start[1])
         path, value = [], self.RATE_CONTINUATION_START / self.scales.omega_ref
         while value > target * (1 + 1e-12) and len(path) < self.RATE_CONTINUATION_SOLVES:
             path.append(value)

@@ -26,6 +26,7 @@ import xarray as xr
 from solver import __version__
 from solver.case import case_attributes
 from solver.study import io
+from solver.study.thermal import cycle_mean
 
 log = logging.getLogger(__name__)
 
@@ -200,10 +201,10 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
     """Write results.nc and the plots (rank 0); return the RunSummary on every rank."""
     cols = cycle.columns
     summary_values = {
-        "h_min_min": _nanreduce(np.nanmin, cols["h_min"]),
-        "p_max_max": _nanreduce(np.nanmax, cols["p_max"]),
-        "F_asperity_max": _nanreduce(np.nanmax, cols["F_asperity"]),
-        "friction_power_mean": _cycle_mean(cols["crank_angle"], cols["friction_power"]),
+        "h_min_min": nan_reduce(np.nanmin, cols["h_min"]),
+        "p_max_max": nan_reduce(np.nanmax, cols["p_max"]),
+        "F_asperity_max": nan_reduce(np.nanmax, cols["F_asperity"]),
+        "friction_power_mean": cycle_mean(cols["friction_power"], cols["crank_angle"]),
     }
     film = run.film_record(cycle)
     attrs = {**case_attributes(case)}
@@ -241,16 +242,9 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
                                                                          "heat_to_oil", "heat_carried")})
 
 
-def _nanreduce(fn, values: np.ndarray) -> float:
+def nan_reduce(fn, values: np.ndarray) -> float:
     values = np.asarray(values, dtype=float)
     return float(fn(values)) if np.any(np.isfinite(values)) else math.nan
-
-
-def _cycle_mean(angles: np.ndarray, values: np.ndarray) -> float:
-    values = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(values)):
-        return math.nan
-    return float(np.trapz(values, angles) / (angles[-1] - angles[0]))
 
 
 def is_complete(path: Path) -> bool:
