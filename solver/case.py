@@ -249,6 +249,10 @@ FIELDS: tuple[FieldSpec, ...] = (
        doc="pressure-viscosity coefficient alpha (engine oils: 10-20 1/GPa)"),
     _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
        doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
+    FieldSpec("oil", "cavitation", "cavitation", str, "reynolds", choices=("reynolds", "jfo"),
+              doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
+                  "(mass-conserving: the film fraction is carried through the cycle; rigid bushing, inlet none "
+                  "or a supply; with cavitation_pressure_bar < 0 the edges are flooded and oil is drawn in there)"),
     FieldSpec("oil", "inlet", "inlet", str, "none", choices=INLETS,
               doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
                   "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
@@ -462,6 +466,7 @@ class Oil:
     piezoviscosity: str = "none"
     pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
+    cavitation: str = "reynolds"  # reynolds | jfo (solver.film.jfo)
     inlet: str = "none"  # one of INLETS
     supply_hole_angle: float = _field("oil", "supply_hole_angle")  # rad, rod frame
     supply_hole_diameter: float = _field("oil", "supply_hole_diameter")  # m

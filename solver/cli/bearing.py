@@ -73,6 +73,9 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--cavitation-pressure", type=_number("--cavitation-pressure", high=0, high_open=False,
                                                          allowed="<= 0 Pa gauge"),
                    default=0.0, help="cavitation pressure [Pa gauge] (default 0)")
+    g.add_argument("--cavitation", choices=("reynolds", "jfo"), default="reynolds",
+                   help="cavitation model: reynolds (p >= p_cav, default) or jfo (mass-conserving; the steady, "
+                        "quasi-static solution; one rank, degree 1, rigid bushing)")
     g.add_argument("--inlet", choices=("max-gap", "none"), default=None,
                    help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
                         "assumption, default without a supply); none: cavitation alone decides (default, and the "
@@ -348,7 +351,7 @@ def run(args, comm) -> int:
     model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size,
                       degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3, elastic=elastic,
-                      piezoviscosity=piezoviscosity)
+                      piezoviscosity=piezoviscosity, cavitation=args.cavitation)
     setup_time = time.perf_counter() - start
     c = args.clearance
     load_angle = -math.pi / 2  # the load acts along -y
@@ -401,6 +404,8 @@ def run(args, comm) -> int:
         # oil supply
         "inlet": args.inlet, "supply": args.supply, "supply_pressure_Pa": args.supply_pressure or 0.0,
         "supply_flow_m3_per_s": result.supply_flow,
+        # cavitation
+        "cavitation": args.cavitation, "cavitated_area_ratio": result.cavitated_area_ratio,
     }
     if residual is not None:
         report["force_residual_N"] = residual
@@ -444,6 +449,7 @@ def _print_table(report: dict, stream) -> None:
     rows += [("friction coefficient", report["friction_coefficient"], ""), ("power loss", report["power_loss_W"], "W")]
     if report["elastic"] != "none":
         rows.append(("largest bushing deformation", report["max_deformation_m"] * 1e6, "um"))
+    rows.append((f"cavitated area ({report['cavitation']})", report["cavitated_area_ratio"], ""))
     for label, value, unit in rows:
         text = "n/a" if value is None else f"{value:14.6g}"
         print(f"{label:28s} {text:>14s} {unit}", file=stream)

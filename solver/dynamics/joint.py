@@ -73,7 +73,7 @@ class FilmJoint(ClearanceJoint):
         self.last_result = None
         # key -> (FilmResult, the elastic unknowns of that solve or None)
         self._cache: dict[tuple, tuple[object, np.ndarray | None]] = {}
-        self._elastic = model.elastic is not None
+        self._elastic = model.has_history  # the deformation's (JFO: film fraction's) history
         self._commits = 0
         self._last_key: tuple | None = None
         self.n_solves = self.n_jacobians = self.n_failures = 0
@@ -317,6 +317,10 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     if se.elastic != "none" and oil.inlet == "max-gap":
         raise InputError("small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
                          "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
+    if oil.cavitation == "jfo" and (oil.inlet == "max-gap" or se.elastic != "none"):
+        raise InputError("oil.cavitation = 'jfo' needs oil.inlet 'none', 'hole', 'axial-groove' or "
+                         "'circumferential-groove' and small_end.elastic = 'none' (the elastic JFO film is not "
+                         "built yet)")
     bearing = Bearing(radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity,
                       cavitation_pressure=oil.cavitation_pressure, inlet="max-gap" if oil.inlet == "max-gap" else "none",
                       **bearing_supply(oil))
@@ -329,5 +333,6 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
                       roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=solver.slip_regularisation, elastic=elastic,
-                      piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity))
+                      piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
+                      cavitation=oil.cavitation)
     return FilmJoint(model), model

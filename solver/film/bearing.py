@@ -76,6 +76,7 @@ from solver.film.mesh import (
     SupplyHole,
     film_mesh,
 )
+from solver.film.jfo import JFOSolver
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MidpointOperator
 
@@ -117,6 +118,7 @@ def _form(expression):
 
 
 INLETS = ("max-gap", "none")
+CAVITATION_MODELS = ("reynolds", "jfo")
 GROOVES = ("none", "axial", "circumferential")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
 STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
@@ -252,6 +254,8 @@ class FilmResult:
     supply_flow: float = 0.0  # m^3/s, flow from the supply hole or groove into the film (0: no supply)
     max_deformation: float = 0.0  # m, the bushing's largest radial deformation (signed, + opens the gap; 0: rigid)
     max_deformation_theta: float = 0.0  # rad, its bushing angle
+    cavitated_area_ratio: float = 0.0  # ruptured film area / bearing area (theta < 1, or p at p_cav: Reynolds)
+    oil_volume: float = math.nan  # m^3, oil held in the film, integral of theta h_T (JFO; NaN: Reynolds)
 
     @property
     def load(self) -> float:
@@ -353,6 +357,8 @@ class FilmModel:
         piezoviscosity: the oil's pressure-viscosity law (solver.film.viscosity.Barus or Roelands);
             None: iso-viscous. The film is then solved for the reduced pressure (``P`` holds it) and
             ``pressure`` holds the true pressure / p_ref.
+        cavitation: "reynolds" (the VI p >= p_cav) or "jfo" (mass-conserving, solver.film.jfo:
+            serial P1, rigid bushing; the film fraction is film state, committed like the deformation).
     """
 
     # rad: the warm start is turned with the solution frame only when the frame jumps (the pin crossing its
@@ -363,16 +369,23 @@ class FilmModel:
 
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
-                 options: dict | None = None, half: bool = True, elastic=None, piezoviscosity=None):
+                 options: dict | None = None, half: bool = True, elastic=None, piezoviscosity=None,
+                 cavitation: str = "reynolds"):
         with _quiet_jit():
             self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-                        half, elastic, piezoviscosity)
+                        half, elastic, piezoviscosity, cavitation)
 
     def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-               half, elastic, piezoviscosity) -> None:
+               half, elastic, piezoviscosity, cavitation) -> None:
         self.bearing = bearing
         self.elastic = elastic
         self.piezo = piezoviscosity
+        if cavitation not in CAVITATION_MODELS:
+            raise out_of_range("cavitation", repr(cavitation), " or ".join(map(repr, CAVITATION_MODELS)))
+        self.cavitation = cavitation
+        if cavitation == "jfo" and (comm.size != 1 or degree != 1 or elastic is not None):
+            raise InputError("cavitation = 'jfo' needs the serial P1 film of a rigid bushing (allowed: one rank, "
+                             "degree 1, elastic none)")
         if elastic is not None:
             if comm.size != 1 or degree != 1:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
@@ -407,6 +420,9 @@ class FilmModel:
         # the last committed states, oldest first: (t_n [s], coupled unknowns x_n)
         self._history: list[tuple[float, np.ndarray]] = []
         self._start: tuple[float, np.ndarray] | None = None  # the one the current solve's rate starts from
+        # the JFO solve's film-fraction rate: (1/dT, theta_reference), dtheta/dT = (theta - theta_reference) / dT
+        self._jfo_rate: tuple[float, np.ndarray] | None = None
+        self._jfo_solution = None  # the last JFOSolution
         self.params = film.FilmParameters(self.mesh)
         self.params.set(S=self.sigma / bearing.clearance if self.sigma > 0 else 1.0)
         # the flow floor of the elastic film: a quarter of the roughness (h/sigma < 0.25 is asperity
@@ -441,6 +457,10 @@ class FilmModel:
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         self._ehd = self._elastic_film(options) if elastic is not None else None
+        self._jfo = self._jfo_film() if cavitation == "jfo" else None
+        # nodal areas of the film (integral of each basis function): the cavitated area
+        self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
+        self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._last: Kinematics | None = None
         self.stats = FilmStats()
         # with the max-gap inlet the solution frame turns with the eccentricity (serial: FrameTurn)
@@ -475,6 +495,32 @@ class FilmModel:
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
         return ehd
+
+    def _jfo_film(self) -> JFOSolver:
+        """The mass-conserving film on this film's space and geometry (solver.film.jfo).
+
+        The same flow factors as the Reynolds forms: D = H^3 phi_x t t + H^3 phi_y e_z e_z; the Couette
+        flux per unit film fraction (U_mean h_T + U_d sigma phi_s) t, with h_T the mean gap
+        (d h_T/dH = phi_c, solver.film.flow_factors.mean_gap); storage h_T and its rate phi_c dH/dT
+        (rate form). Midpoint quadrature, as the Reynolds operator. The prescribed dofs hold u = P -
+        P_cav (the edges and seam at ambient, the supply at its pressure): with ambient at the
+        cavitation pressure the edges are a flooded boundary at P_cav (u = 0: theta = 1)."""
+        g, prm = self.geometry, self.params
+        k_theta, k_z, _ = film.reynolds_coefficients(g, self.roughness)
+        D = k_theta * ufl.outer(g.tangent, g.tangent) + k_z * ufl.outer(g.axial, g.axial)
+        if self.roughness is None:
+            h_T, phi_c, shear = g.H, 1.0, 0.0
+        else:
+            Hs = g.H / prm.S
+            h_T = prm.S * self.roughness.mean_gap(Hs, mod=ufl)
+            phi_c = self.roughness.contact_factor(Hs, mod=ufl)
+            shear = g.U_half_diff * prm.S * self.roughness.shear_flow(Hs, mod=ufl)
+        flux = (g.U_mean * h_T + shear) * g.tangent
+        lower = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
+        prescribed = {name: (dofs, value - lower) for name, (dofs, value) in self._prescribed().items()}
+        return JFOSolver(self.V, h_T, None, prescribed, D=D, flux=flux, rate=phi_c * g.dH_dT,
+                         quadrature_degree=1, variables=list(g.variables().values()),
+                         options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
 
     def _build_forms(self) -> None:
         g, P, s = self.geometry, self.P, self.scales
@@ -597,44 +643,63 @@ class FilmModel:
         whole = float(self.mesh_spec.multiplicity)
         return _form(whole * ufl.replace(residual, {v: indicator}) * dx_cells)
 
-    def _boundary_conditions(self) -> list:
-        fdim = 1
+    def _prescribed(self) -> dict[str, tuple[np.ndarray, float]]:
+        """The film's prescribed dofs by name ("edges", "seam" with the max-gap inlet, "supply") and
+        the film unknown there (P: the reduced pressure / p_ref)."""
         edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
-        ambient = fem.Function(self.V)
-        bcs = [fem.dirichletbc(ambient, fem.locate_dofs_topological(self.V, fdim, edges))]
+        out = {"edges": (fem.locate_dofs_topological(self.V, 1, edges), 0.0)}
         if self.bearing.inlet == "max-gap":  # the seam, theta = 0 (solver.film.mesh), at ambient pressure
             x = self.V.tabulate_dof_coordinates()
-            seam = np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32)
-            bcs.append(fem.dirichletbc(ambient, seam))
+            out["seam"] = (np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32), 0.0)
         if self.mesh_spec.supply is not None:  # hole or groove: the dofs of the supply cells
-            supply = fem.Function(self.V)
-            supply.x.array[:] = self._reduced(self.bearing.supply_pressure) / self.scales.pressure
             cells = self.cell_tags.find(TAGS["supply"])
-            bcs.append(fem.dirichletbc(supply, fem.locate_dofs_topological(self.V, 2, cells)))
+            out["supply"] = (fem.locate_dofs_topological(self.V, 2, cells),
+                             self._reduced(self.bearing.supply_pressure) / self.scales.pressure)
+        return out
+
+    def _boundary_conditions(self) -> list:
+        bcs = []
+        for dofs, value in self._prescribed().values():
+            function = fem.Function(self.V)
+            function.x.array[:] = value
+            bcs.append(fem.dirichletbc(function, dofs))
         return bcs
 
+    @property
+    def has_history(self) -> bool:
+        """True when a solve depends on committed film states: an elastic bushing (its deformation's
+        rate) or the mass-conserving film (its film fraction)."""
+        return self._ehd is not None or self._jfo is not None
+
     def deformation_state(self) -> np.ndarray | None:
-        """The coupled unknowns (pressure, then the elastic ones) of the last solve, a copy, for
-        ``commit_deformation``; None if rigid."""
+        """The film state of the last solve, a copy, for ``commit_deformation``: the coupled unknowns
+        (pressure, then the elastic ones) of an elastic bushing, the JFO unknown u (theta = 1 +
+        min(u, 0)) of the mass-conserving film; None without history."""
+        if self._jfo is not None:
+            return self._jfo.u.x.array[: len(self._owned_coords)].copy()
         if self._ehd is None:
             return None
         return np.concatenate([self.P.x.array[: self._ehd.n], self._ehd.q])
 
     def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
         """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate
-        for solves after ``time_s`` (and the start of a solve that fails from the last one). Committed
-        states at or after ``time_s`` are dropped (a history replayed from an earlier time)."""
-        if self._ehd is None:
+        (of the film fraction's, JFO) for solves after ``time_s`` (and the start of a solve that fails
+        from the last one). Committed states at or after ``time_s`` are dropped (a history replayed
+        from an earlier time)."""
+        if not self.has_history:
             return
-        if self.bearing.inlet == "max-gap":  # W_n would have to turn with the solution frame
-            raise InputError("an elastic bushing's deformation rate needs inlet 'none', with or without a supply "
-                             "(allowed with 'max-gap': quasi-static solves only)")
+        if self.bearing.inlet == "max-gap":  # W_n (theta_n) would have to turn with the solution frame
+            raise InputError("a film with history (elastic bushing or cavitation 'jfo') needs inlet 'none', with "
+                             "or without a supply (allowed with 'max-gap': quasi-static solves only)")
         earlier = [entry for entry in self._history if entry[0] < time_s]
         self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
 
     def start_from(self, state: np.ndarray) -> None:
-        """Make ``state`` (from deformation_state) the next solve's warm start (elastic only): the
-        state one integrator step before is a far better start than a solve of another time."""
+        """Make ``state`` (from deformation_state) the next solve's warm start: the state one
+        integrator step before is a far better start than a solve of another time."""
+        if self._jfo is not None:
+            self._jfo.u.x.array[: len(state)] = state
+            return
         if self._ehd is None:
             return
         n = self._ehd.n
@@ -749,6 +814,8 @@ class FilmModel:
         stats.solves += 1
         if self._ehd is not None:
             self._set_rate(time_s)
+        if self._jfo is not None:
+            self._jfo_rate = self._film_fraction_rate(time_s)
         try:
             result = self._solve(kin, start)
         except FilmNotConverged as err:
@@ -775,6 +842,8 @@ class FilmModel:
         self.set_kinematics(solved)
         if self._ehd is not None:
             iterations = self._solve_elastic()
+        elif self._jfo is not None:
+            iterations = self._solve_jfo()
         else:
             self.solver.update()
             iterations = self.solver.solve()
@@ -800,6 +869,7 @@ class FilmModel:
             n = len(self._owned_coords)
             w, theta_w = deformation_peak(self.W.x.array[:n], self._owned_coords, self.bearing.clearance)
             deformation = (w, (theta_w + beta) % (2 * math.pi))
+        flows = self._flows()
         contact_area = asperity_normal = asperity_p_max = 0.0
         if self.contact is not None:
             asperity_normal = values["asperity_normal"] * s.force
@@ -812,8 +882,8 @@ class FilmModel:
             h_min=h_min, torque_journal=values["torque_journal"], torque_bushing=values["torque_bushing"],
             asperity_torque_journal=values.get("asperity_torque_journal", 0.0),
             asperity_normal_force=asperity_normal, contact_area_ratio=contact_area, asperity_p_max=asperity_p_max,
-            side_flow=-self._assemble(self._side_flow_form) * s.flow,
-            supply_flow=self._assemble(self._supply_flow_form) * s.flow if self._supply_flow_form is not None else 0.0,
+            side_flow=flows[0], supply_flow=flows[1], cavitated_area_ratio=self._cavitated_area(),
+            oil_volume=self._oil_volume(),
             iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
             max_deformation=deformation[0], max_deformation_theta=deformation[1])
 
@@ -854,6 +924,84 @@ class FilmModel:
                                        f"accepted state, to dt = {dt:.3g} s)",
                                        again.reason, iterations + again.iterations) from None
         return iterations
+
+    def _film_fraction_rate(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
+        """The film fraction's rate for a JFO solve at ``time_s``, as ``(theta - theta_ref) / dT``: the
+        variable-step BDF2 derivative through the two committed states before ``time_s`` (as the
+        deformation's, ``_set_rate``), implicit Euler from the last one when there is only one (or the
+        step grew by more than BDF2_MAX_RATIO); None (quasi-static) without any. Returns (dT
+        dimensionless, theta_ref) and sets the solve's fall-back start (the last committed state)."""
+        history = self.rate_history(time_s)
+        self._start = history[-1] if history else None
+        if not history:
+            return None
+        t_n, u_n = history[-1]
+        h = time_s - t_n
+        inverse_step, theta_ref = 1.0 / h, 1.0 + np.minimum(u_n, 0.0)
+        if len(history) == 2:
+            t_m, u_m = history[0]
+            w = h / (t_n - t_m)
+            if w <= self.BDF2_MAX_RATIO:
+                inverse_step = (1 + 2 * w) / ((1 + w) * h)
+                theta_ref = ((1 + w) * theta_ref - w**2 / (1 + w) * (1.0 + np.minimum(u_m, 0.0))) / (inverse_step * h)
+        return self.scales.omega_ref / inverse_step, theta_ref
+
+    def _solve_jfo(self) -> int:
+        """The mass-conserving film at the current constants, with the film fraction's rate from the
+        committed states (``_film_fraction_rate``; quasi-static without one); P = P_cav + max(u, 0)."""
+        jfo, n = self._jfo, len(self._owned_coords)
+        jfo.update()
+        self.solver.update()  # (the Reynolds operator's coefficients carry the Couette torques' integrals)
+        dT, theta_old = self._jfo_rate if self._jfo_rate is not None else (None, None)
+        # from the last solve; if semismooth Newton cycles from there (a far state of a Newton iteration),
+        # from the last committed state, then from the full film (whose first step is the Reynolds
+        # solution without cavitation, and which has converged where the others cycled)
+        starts = [None, *([self._start[1]] if self._start is not None else []), np.ones(n)]
+        iterations = 0
+        for k, start in enumerate(starts):
+            try:
+                solution = jfo.solve(dT, theta_old=theta_old, start=start)
+                break
+            except FilmNotConverged as err:
+                iterations += err.iterations
+                if k == len(starts) - 1:
+                    raise FilmNotConverged("mass-conserving film did not converge (also from the last committed "
+                                           "state and from the full film)", err.reason, iterations) from None
+        solution = dataclasses.replace(solution, iterations=solution.iterations + iterations)
+        self._jfo_solution = solution
+        self.P.x.array[:n] = self.solver.lower.x.array[:n] + solution.pressure
+        self.P.x.scatter_forward()
+        return solution.iterations
+
+    def _flows(self) -> tuple[float, float]:
+        """(side flow, supply flow) [m^3/s] of the last solve: the consistent fluxes (module docstring)."""
+        s, whole = self.scales, float(self.mesh_spec.multiplicity)
+        if self._jfo is not None:
+            outflow = self._jfo_solution.outflow
+            return outflow["edges"] * whole * s.flow, -outflow.get("supply", 0.0) * whole * s.flow
+        supply = self._assemble(self._supply_flow_form) * s.flow if self._supply_flow_form is not None else 0.0
+        return -self._assemble(self._side_flow_form) * s.flow, supply
+
+    def _cavitated_area(self) -> float:
+        """Ruptured film area / bearing area (nodal areas): theta < 1 (JFO), P at the cavitation bound
+        (Reynolds)."""
+        n = len(self._owned_coords)
+        areas = self._nodal_areas.getArray(readonly=True)
+        if self._jfo is not None:
+            ruptured = self._jfo_solution.theta < 1.0
+        else:
+            lower = self.solver.lower.x.array[:n]
+            ruptured = self.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+        local = np.array([areas[ruptured].sum(), areas.sum()])
+        total = local if self.comm.size == 1 else self.comm.allreduce(local, op=MPI.SUM)
+        return float(total[0] / total[1])
+
+    def _oil_volume(self) -> float:
+        """Oil in the film [m^3] (JFO: the sum of the nodes' contents m theta); NaN with Reynolds."""
+        if self._jfo is None:
+            return math.nan
+        R, c = self.bearing.radius, self.bearing.clearance
+        return float(np.sum(self._jfo_solution.content)) * float(self.mesh_spec.multiplicity) * R**2 * c
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
@@ -938,7 +1086,13 @@ class FilmModel:
         dr, gradients, w_gradients = vectors[:n_in], vectors[n_in : n_in + n_grad], vectors[n_in + n_grad :]
         for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
-        if self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
+        if self._jfo is not None:  # the mass-conserving film's own sensitivities (solver.film.jfo)
+            dP = []
+            for d_k in self._jfo.sensitivities(self._jfo.residual_derivatives()):
+                vec = dr[0].duplicate()
+                vec.setArray(d_k)
+                dP.append(vec)
+        elif self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
             names = list(self.geometry.variables())
             d = self._ehd.sensitivities(self._ehd.residual_derivatives([v.getArray().copy() for v in dr], names))
             n = self._ehd.n
@@ -1007,6 +1161,8 @@ class FilmModel:
                          "film_thickness": fem.Function(self.V, name="film_thickness_m")}
             if self.W is not None:
                 functions["deformation"] = fem.Function(self.V, name="deformation_m")
+            if self._jfo is not None:
+                functions["film_fraction"] = fem.Function(self.V, name="film_fraction")
             expressions = {"film_thickness": fem.Expression(self.geometry.H * self.bearing.clearance, points)}
             if self.contact is not None:
                 functions["asperity_pressure"] = fem.Function(self.V, name="asperity_pressure_Pa")
@@ -1017,6 +1173,8 @@ class FilmModel:
         functions["pressure"].x.array[:] = self.pressure.x.array * self.scales.pressure
         if self.W is not None:
             functions["deformation"].x.array[:] = self.W.x.array * self.bearing.clearance
+        if self._jfo is not None:
+            functions["film_fraction"].x.array[:] = self._jfo.theta.x.array
         for name, expression in expressions.items():
             functions[name].interpolate(expression)
         return functions
@@ -1024,6 +1182,9 @@ class FilmModel:
     def close(self) -> None:
         if self._ehd is not None:
             self._ehd.close()
+        if self._jfo is not None:
+            self._jfo.close()
+        self._nodal_areas.destroy()
         self.solver.close()
         self._jacobian_vectors.close()
         for vec in self._force_vectors.values():

@@ -128,6 +128,27 @@ def contact_factor(Hs: Any, mod: Any = np) -> Any:
     return mod.conditional(mod.lt(H, CONTACT_FACTOR_H), fit, 1.0)
 
 
+#: Gauss-Legendre rule of the mean gap's integral (smooth integrand on at most [0, 3]: ~1e-12)
+_MEAN_GAP_RULE = np.polynomial.legendre.leggauss(10)
+
+
+def mean_gap(Hs: Any, mod: Any = np) -> Any:
+    """The mean gap h_T / sigma whose derivative is the contact factor, d(h_T/sigma)/dHs = phi_c(Hs):
+    ``Hs + integral_{Hs}^{3} (1 - phi_c(x)) dx`` below Hs = 3 (10-point Gauss-Legendre), Hs above.
+
+    It is the gap the mass-conserving film stores and carries (solver.film.jfo), so that with a full
+    film its Couette and squeeze terms are those of the averaged Reynolds equation, phi_c dH/dtheta
+    and phi_c dH/dT; the constant is fixed by h_T = h for Hs >= 3 (phi_c = 1 there)."""
+    low = _clamp(Hs, 0.0, mod)
+    low = np.minimum(low, CONTACT_FACTOR_H) if mod is np else mod.min_value(low, CONTACT_FACTOR_H)
+    half = (CONTACT_FACTOR_H - low) / 2
+    nodes, weights = _MEAN_GAP_RULE
+    deficit = sum(float(w) * (1.0 - contact_factor(low + half * (1.0 + float(x)), mod)) for x, w in zip(nodes, weights))
+    # below Hs = 0 phi_c is held at phi_c(0): the mean gap goes on with that slope
+    below = _clamp(-Hs, 0.0, mod)
+    return Hs + below * (1.0 - contact_factor(0.0 * Hs, mod)) + half * deficit
+
+
 def shear_stress_phi_f(Hs: Any, mod: Any = np) -> Any:
     """Phi_f of Patir & Cheng 1979 (mean of h/h_T over the polynomial gap distribution), z = Hs/3.
 
@@ -220,6 +241,9 @@ class PatirCheng:
 
     def contact_factor(self, Hs, mod=np):
         return contact_factor(Hs, mod)
+
+    def mean_gap(self, Hs, mod=np):
+        return mean_gap(Hs, mod)
 
     def shear_stress_factors(self, Hs, mod=np):
         """(Phi_f, Phi_fs, Phi_fp); Phi_fs carries the variance ratio like phi_s."""

@@ -51,12 +51,28 @@ is theta - 1 (a starved inlet). The consistent flux through them, from the uncon
 makes the discrete balance exact: inflow - outflow = change of the stored oil + supply, to the
 solver's tolerance.
 
-Not included (yet): flow factors and shear flow (D may be a tensor and U any vector, so phi_x and
-phi_c fit in), piezoviscosity, the elastic film.
+Rate form (the bearing film in the engine, ``rate`` given). The storage term is split as
+``d(theta H)/dT = H dtheta/dT + theta dH/dT`` with dH/dT from the kinematics (exact, as the
+Reynolds squeeze term) and only dtheta/dT by implicit Euler: node i holds ``m_i (theta_i -
+theta_old_i)/dT + mdot_i theta_i`` with ``mdot_i = integral(dH/dT phi_i)``. In the full film (theta =
+theta_old = 1) this is the Reynolds equation with the squeeze term of the current velocity, so the
+film forces and their Jacobian see the integrator's velocities, as with the Reynolds condition; the
+stored oil's discrete balance then holds to O(dT^2) per step (the content form above: exactly).
+Without a time step (quasi-static) the rate form keeps ``mdot theta``.
+
+Flow factors and shear flow fit in as given by the caller: D a tensor (H^3 phi_x, H^3 phi_y), the
+Couette flux per unit film fraction any vector (``flux``, default H U; with Patir-Cheng U_mean h_T +
+U_d sigma phi_s along the sliding direction), H the stored gap (the mean gap h_T on rough surfaces).
+
+Sensitivities (``sensitivities``): at a converged solution r(u; c) = 0 on its partition, with c the
+constants in ``variables`` (ufl.variable of fem.Constant), ``du/dc = -J^-1 dr/dc``, where dr/dc at
+fixed u takes the derivatives of K, of the upwinded T (the edge diffusion d_ij follows the entry that
+is its maximum at the solution) and of the storage terms; J is the last Newton Jacobian (the
+solution's partition).
 
 What the caller provides: a P1 space, H and U as UFL expressions (D optional), the prescribed dofs by
-name, and per solve the time step and the previous content. Use the solver as a context manager:
-PETSc destructors are collective.
+name, and per solve the time step and the previous content (or film fraction, rate form). Use the
+solver as a context manager: PETSc destructors are collective.
 """
 
 from __future__ import annotations
@@ -68,6 +84,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
+import scipy.sparse
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -120,20 +137,26 @@ class JFOSolver:
         f: supply per unit area (UFL scalar), default none.
         quadrature_degree: of all the forms (None: UFL's estimate).
         options: PETSc options merged over ``DEFAULT_OPTIONS``.
+        flux: Couette flux per unit film fraction (UFL vector), default H U.
+        rate: dH/dT (UFL scalar): the rate form of the storage (module docstring); None: content form.
+        variables: ufl.variable constants that D, flux, H and rate depend on (for ``sensitivities``).
     """
 
     def __init__(self, V: fem.FunctionSpace, H, U, prescribed: dict[str, tuple[np.ndarray, float]], *,
-                 D=None, f=None, quadrature_degree: int | None = None, options: dict | None = None):
+                 D=None, f=None, quadrature_degree: int | None = None, options: dict | None = None,
+                 flux=None, rate=None, variables=()):
         self.V = V
         self.comm = V.mesh.comm
         metadata = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
         dx = ufl.dx(domain=V.mesh, metadata=metadata)
         w, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         D = H**3 if D is None else D
+        flux = H * U if flux is None else flux
         self._K_form = fem.form(ufl.inner(D * ufl.grad(w), ufl.grad(v)) * dx)
-        self._C_form = fem.form(-w * H * ufl.inner(U, ufl.grad(v)) * dx)
+        self._C_form = fem.form(-w * ufl.inner(flux, ufl.grad(v)) * dx)
         self._m_form = fem.form(H * v * dx)
         self._f_form = None if f is None else fem.form(f * v * dx)
+        self._rate_form = None if rate is None else fem.form(rate * v * dx)
         self.u = fem.Function(V, name="u")
         # a cold start from the full film: the first Newton step is the Reynolds solution without
         # cavitation, and the whole region where it is below P_cav cavitates at once (from u <= 0 the
@@ -151,9 +174,19 @@ class JFOSolver:
         for dofs, value in self.prescribed.values():
             self._bc_values[dofs[dofs < self.n_owned]] = value
         self._bc_global = (self._bc_local + self.u.vector.getOwnershipRange()[0]).astype(PETSc.IntType)
+        # sensitivities: per variable the forms of dD/dc grad(P).grad(v), -w dflux/dc.grad(v), dH/dc v, drate/dc v
+        self._derivative_forms = []
+        for c in variables:
+            derivative = [ufl.inner(ufl.diff(D, c) * ufl.grad(self.pressure), ufl.grad(v)),
+                          -w * ufl.inner(ufl.diff(flux, c), ufl.grad(v)), ufl.diff(H, c) * v,
+                          None if rate is None else ufl.diff(rate, c) * v]
+            self._derivative_forms.append([None if e is None or _is_zero(e) else fem.form(e * dx)
+                                           for e in derivative])
         self.K = fem_petsc.create_matrix(self._K_form)
         self.T = fem_petsc.create_matrix(self._C_form)
+        self._C_raw = None  # the Couette matrix before upwinding (CSR values; sensitivities)
         self.m = fem_petsc.create_vector(self._m_form)
+        self.mdot = self.m.duplicate() if rate is not None else None
         self.b = self.m.duplicate()  # -c_old/dT - F
         self.r = self.m.duplicate()
         self._theta_vec, self._pressure_vec, self._mask = self.m.duplicate(), self.m.duplicate(), self.m.duplicate()
@@ -170,6 +203,7 @@ class JFOSolver:
         self._partition: np.ndarray | None = None  # u > 0 where the last Jacobian was built
         self._scale = 1.0  # the flux scale of the current solve (solve)
         self._Ts: PETSc.Mat | None = None  # T with the storage term of the current solve
+        self._history: tuple[float | None, np.ndarray | None] = (None, None)  # (dT, content or theta_old)
 
     # -- assembly -------------------------------------------------------------------------------
     def update(self) -> None:
@@ -178,24 +212,38 @@ class JFOSolver:
             A.zeroEntries()
             fem_petsc.assemble_matrix(A, form)
             A.assemble()
+        self._C_raw = self.T.getValuesCSR()[2].copy() if self._derivative_forms else None
         _upwind(self.T)
-        with self.m.localForm() as local:
-            local.set(0.0)
-        fem_petsc.assemble_vector(self.m, self._m_form)
-        self.m.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        for vec, form in ((self.m, self._m_form), (self.mdot, self._rate_form)):
+            if form is None:
+                continue
+            with vec.localForm() as local:
+                local.set(0.0)
+            fem_petsc.assemble_vector(vec, form)
+            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
-    def _set_history(self, dT: float | None, content_old: np.ndarray | None) -> PETSc.Mat:
-        """b = -c_old/dT - F, and the storage m/dT on T's diagonal (returned: T with storage)."""
+    def _set_history(self, dT: float | None, old: np.ndarray | None) -> PETSc.Mat:
+        """b = -c_old/dT - F (content form) or -m theta_old/dT - F (rate form), and the storage m/dT
+        (plus mdot in the rate form) on T's diagonal (returned: T with storage)."""
         b = np.zeros(self.n_owned)
         T = self.T.duplicate(copy=True)
+        m = self.m.getArray(readonly=True)
+        diagonal = np.zeros(self.n_owned)
         if dT is not None:
-            c_old = self.m.getArray(readonly=True) if content_old is None else np.asarray(content_old)
-            b -= c_old / dT
-            storage = self.m.copy()
-            storage.scale(1.0 / dT)
+            if self.mdot is None:  # content form: old is the content m_n theta_n
+                b -= (m if old is None else np.asarray(old)) / dT
+            else:  # rate form: old is theta_n
+                b -= m * (1.0 if old is None else np.asarray(old)) / dT
+            diagonal += m / dT
+        if self.mdot is not None:
+            diagonal += self.mdot.getArray(readonly=True)
+        if dT is not None or self.mdot is not None:
+            storage = self.m.duplicate()
+            storage.setArray(diagonal)
             T.setDiagonal(storage, addv=PETSc.InsertMode.ADD)
             T.assemble()
             storage.destroy()
+        self._history = (dT, None if old is None else np.asarray(old).copy())
         if self._f_form is not None:
             F = fem_petsc.assemble_vector(self._f_form)
             F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -270,20 +318,25 @@ class JFOSolver:
 
     # -- solve ----------------------------------------------------------------------------------
     def solve(self, dT: float | None = None, content_old: np.ndarray | None = None,
-              start: np.ndarray | None = None) -> JFOSolution:
+              start: np.ndarray | None = None, theta_old: np.ndarray | None = None) -> JFOSolution:
         """Solve one (implicit Euler) step, or the steady problem when ``dT`` is None.
 
         Args:
             dT: time step (dimensionless); None: steady.
-            content_old: the previous step's ``JFOSolution.content`` (default: full film, m of the
-                current gap).
+            content_old: content form: the previous step's ``JFOSolution.content`` (default: full
+                film, m of the current gap).
             start: initial u (owned values); default: the last solution (the full film, u = 1, at
                 the first solve).
+            theta_old: rate form: the previous step's film fraction (default: full film).
 
         Raises:
             FilmNotConverged: SNES stopped without convergence.
         """
-        self._Ts = self._set_history(dT, content_old)
+        if self.mdot is None and theta_old is not None or self.mdot is not None and content_old is not None:
+            raise ValueError("JFOSolver.solve: theta_old with the rate form, content_old with the content form")
+        if self._Ts is not None:  # (kept after a solve for its sensitivities)
+            self._Ts.destroy()
+        self._Ts = self._set_history(dT, content_old if self.mdot is None else theta_old)
         x = self.u.vector
         if start is not None:
             x.setArray(start)
@@ -298,16 +351,12 @@ class JFOSolver:
         scale = self.r.norm()
         reference.destroy()
         self._scale, self._partition = scale, None
-        try:
-            self.snes.solve(None, x)
-            reason, iterations = self.snes.getConvergedReason(), self.snes.getIterationNumber()
-            if reason <= 0:
-                raise FilmNotConverged("mass-conserving film did not converge", reason, iterations)
-            # consistent fluxes: outflow = -r of the unconstrained residual, summed over the set
-            self._unconstrained(x, self.r)
-        finally:
-            self._Ts.destroy()
-            self._Ts = None
+        self.snes.solve(None, x)
+        reason, iterations = self.snes.getConvergedReason(), self.snes.getIterationNumber()
+        if reason <= 0:
+            raise FilmNotConverged("mass-conserving film did not converge", reason, iterations)
+        # consistent fluxes: outflow = -r of the unconstrained residual, summed over the set
+        self._unconstrained(x, self.r)
         log.debug("JFO film: %d Newton iterations (SNES reason %d)", iterations, reason)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         u = self.u.x.array
@@ -323,17 +372,104 @@ class JFOSolver:
                            load=self.comm.allreduce(fem.assemble_scalar(self._load_form), op=MPI.SUM),
                            outflow=outflow, iterations=iterations)
 
+    # -- sensitivities --------------------------------------------------------------------------
+    def residual_derivatives(self) -> list[np.ndarray]:
+        """dr/dc at the last solution and fixed u, one owned array per ``variables`` entry (zero on
+        the prescribed dofs)."""
+        theta = self.theta.x.array[: self.n_owned]
+        if self.comm.size != 1:
+            raise NotImplementedError("JFO sensitivities: serial only")
+        dT, old = self._history
+        indptr, cols, _ = self.T.getValuesCSR()
+        raw = self._C_raw
+        out = []
+        for dK, dC, dH, drate in self._derivative_forms:
+            d = np.zeros(self.n_owned)
+            if dK is not None:
+                d += _assembled(dK)
+            if dC is not None:
+                A = fem_petsc.assemble_matrix(dC)
+                A.assemble()
+                dvalues = A.getValuesCSR()[2]
+                d += _upwind_derivative(indptr, cols, raw, dvalues) @ theta
+                A.destroy()
+            dm = _assembled(dH) if dH is not None else None
+            if dm is not None and dT is not None:
+                d += dm * theta / dT
+                if self.mdot is not None:
+                    d -= dm * (1.0 if old is None else old) / dT
+            if drate is not None:
+                d += _assembled(drate) * theta
+            d[self._bc_local] = 0.0
+            out.append(d)
+        return out
+
+    def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
+        """d(P - P_cav)/dc = -diag(u > 0) J^-1 dr/dc at the last solution, with J its Newton
+        Jacobian (built again if the solution's partition is not the last one's)."""
+        x = self.u.vector
+        partition = x.getArray(readonly=True) > 0.0
+        ksp = self.snes.getKSP()
+        if self._partition is None or not np.array_equal(partition, self._partition):
+            self._jacobian(self.snes, x, self.J, self.J)
+            ksp.setOperators(self.J)
+        rhs, du = self.r.duplicate(), self.r.duplicate()
+        out = []
+        for d in dr:
+            rhs.setArray(-np.asarray(d))
+            ksp.solve(rhs, du)
+            out.append(np.where(partition, du.getArray(readonly=True), 0.0))
+        rhs.destroy()
+        du.destroy()
+        return out
+
     # -- lifetime -------------------------------------------------------------------------------
     def close(self) -> None:
         for obj in (self.snes, self.K, self.T, self.J, self._work, self.m, self.b, self.r, self._theta_vec,
-                    self._pressure_vec, self._mask):
-            obj.destroy()
+                    self._pressure_vec, self._mask, self.mdot, self._Ts):
+            if obj is not None:
+                obj.destroy()
 
     def __enter__(self) -> JFOSolver:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _assembled(form) -> np.ndarray:
+    """The owned values of an assembled linear form (ghost contributions added)."""
+    vec = fem_petsc.assemble_vector(form)
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = vec.getArray(readonly=True).copy()
+    vec.destroy()
+    return values
+
+
+def _is_zero(expression) -> bool:
+    return isinstance(expression, ufl.constantvalue.Zero) or isinstance(
+        ufl.algorithms.expand_derivatives(expression), ufl.constantvalue.Zero)
+
+
+def _upwind_derivative(indptr: np.ndarray, cols: np.ndarray, values: np.ndarray,
+                       dvalues: np.ndarray) -> scipy.sparse.csr_matrix:
+    """The derivative of ``_upwind`` at the Couette matrix ``values`` in the direction ``dvalues``
+    (CSR arrays of one pattern, serial): d_ij = max(0, C_ij, C_ji) follows the entry that is its
+    maximum (none where both are <= 0)."""
+    n = len(indptr) - 1
+    C = scipy.sparse.csr_matrix((values, cols, indptr), shape=(n, n))
+    dC = scipy.sparse.csr_matrix((dvalues, cols, indptr), shape=(n, n))
+    Ct, dCt = C.T.tocsr(), dC.T.tocsr()
+    for M in (Ct, dCt):
+        M.sort_indices()
+    for M in (C, dC):
+        M.sort_indices()
+    rows = np.repeat(np.arange(n), np.diff(C.indptr))
+    off = C.indices != rows
+    a, b = C.data, Ct.data
+    dd = np.where(off & (np.maximum(a, b) > 0), np.where(a >= b, dC.data, dCt.data), 0.0)
+    D = scipy.sparse.csr_matrix((dd, C.indices, C.indptr), shape=(n, n))
+    return (dC - D + scipy.sparse.diags(np.asarray(D.sum(axis=1)).ravel())).tocsr()
 
 
 def _upwind(C: PETSc.Mat) -> None:

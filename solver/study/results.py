@@ -63,6 +63,12 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
     "side_flow": ("m3 s-1", "oil volume flow out of both bushing edges (film joints; NaN otherwise)"),
+    "supply_flow": ("m3 s-1", "oil volume flow from the supply hole or groove into the film (finite-element film; "
+                    "0 without a supply, NaN for other joints)"),
+    "cavitated_area_ratio": ("1", "ruptured film area over bearing area: film fraction < 1 (oil.cavitation = jfo) "
+                             "or pressure at the cavitation pressure (reynolds); finite-element film, NaN otherwise"),
+    "oil_volume": ("m3", "oil held in the film, integral of film fraction x mean gap (oil.cavitation = jfo; NaN "
+                   "otherwise)"),
     "dissipated_power": ("W", "power dissipated in the joint (friction + squeeze)"),
     "input_power": ("W", "power of the crank driver and the gas on the mechanism"),
     "kinetic_energy": ("J", "kinetic energy of the mechanism"),

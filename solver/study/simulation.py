@@ -231,7 +231,7 @@ class _Run:
         values = dict(ecc_x=nan, ecc_y=nan, ecc_rate_x=nan, ecc_rate_y=nan, omega_rel=nan, pin_force_x=nan, pin_force_y=nan, h_min=nan, p_max=nan, F_hydro=nan,
                       F_asperity=nan, friction_torque=nan, friction_power=nan, squeeze_power=nan,
                       dissipated_power=nan, contact_area_ratio=nan, deformation_max=nan, deformation_max_angle=nan)
-        values["side_flow"] = nan
+        values.update(side_flow=nan, supply_flow=nan, cavitated_area_ratio=nan, oil_volume=nan)
         if em.small_end is None:
             values["pin_force_x"], values["pin_force_y"] = reactions["small_end"][ROD, :2]
         else:
@@ -254,7 +254,9 @@ class _Run:
                 values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
                               contact_area_ratio=result.contact_area_ratio, h_min=result.h_min,
                               deformation_max=result.max_deformation,
-                              deformation_max_angle=result.max_deformation_theta, side_flow=result.side_flow)
+                              deformation_max_angle=result.max_deformation_theta, side_flow=result.side_flow,
+                              supply_flow=result.supply_flow, cavitated_area_ratio=result.cavitated_area_ratio,
+                              oil_volume=result.oil_volume)
             elif self.joint_name == "short-bearing":
                 values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0,
                               side_flow=self.joint.side_flow(kin.ecc, kin.ecc_rate, kin.omega_rel))
@@ -428,7 +430,7 @@ def _ideal_cycle_output(ideal) -> CycleOutput:
     for name in ("ecc_x", "ecc_y", "ecc_rate_x", "ecc_rate_y", "omega_rel", "h_min", "p_max", "F_hydro", "F_asperity",
                  "friction_torque", "friction_power", "squeeze_power", "dissipated_power", "contact_area_ratio",
                  "deformation_max", "deformation_max_angle", "kinetic_energy", "potential_energy",
-                 "side_flow"):
+                 "side_flow", "supply_flow", "cavitated_area_ratio", "oil_volume"):
         columns[name] = nan.copy()
     return CycleOutput(columns, math.nan)
 
