@@ -504,9 +504,11 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     if state is not None:
         first, t0, q0, qd0, history, timings, thermal_state, film_states = state
         log.info("resuming after cycle %d from %s", first, checkpoint)
-        if run.model is not None:  # an elastic bushing's deformation history goes on where it stopped
+        if run.model is not None:  # an elastic bushing's deformation (JFO: film fraction) history goes on
             for time_s, film_state in film_states:
                 run.model.commit_deformation(film_state, time_s)
+            if film_states:  # and the next solve starts where the run's would have: from the cycle's end
+                run.model.start_from(film_states[-1][1])
         if run.thermal is not None and thermal_state:
             thermal = run.thermal
             run.thermal = EffectiveTemperature.from_state(thermal.model, thermal.tolerance, thermal_state)
