@@ -75,7 +75,7 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
                    default=0.0, help="cavitation pressure [Pa gauge] (default 0)")
     g.add_argument("--cavitation", choices=("reynolds", "jfo"), default="reynolds",
                    help="cavitation model: reynolds (p >= p_cav, default) or jfo (mass-conserving; the steady, "
-                        "quasi-static solution; one rank, degree 1, rigid bushing)")
+                        "quasi-static solution; one rank, degree 1)")
     g.add_argument("--inlet", choices=("max-gap", "none"), default=None,
                    help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
                         "assumption, default without a supply); none: cavitation alone decides (default, and the "

@@ -67,6 +67,7 @@ from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.ehd import ElasticFilm, ModalCompliance, WinklerLayer, deformation_peak
+from solver.film.ehd_jfo import ElasticJFOFilm
 from solver.film.mesh import (
     TAGS,
     AxialGroove,
@@ -357,8 +358,9 @@ class FilmModel:
         piezoviscosity: the oil's pressure-viscosity law (solver.film.viscosity.Barus or Roelands);
             None: iso-viscous. The film is then solved for the reduced pressure (``P`` holds it) and
             ``pressure`` holds the true pressure / p_ref.
-        cavitation: "reynolds" (the VI p >= p_cav) or "jfo" (mass-conserving, solver.film.jfo:
-            serial P1, rigid bushing; the film fraction is film state, committed like the deformation).
+        cavitation: "reynolds" (the VI p >= p_cav) or "jfo" (mass-conserving, solver.film.jfo, and with
+            an elastic bushing solver.film.ehd_jfo: serial P1; the film fraction is film state,
+            committed like the deformation).
     """
 
     # rad: the warm start is turned with the solution frame only when the frame jumps (the pin crossing its
@@ -383,9 +385,8 @@ class FilmModel:
         if cavitation not in CAVITATION_MODELS:
             raise out_of_range("cavitation", repr(cavitation), " or ".join(map(repr, CAVITATION_MODELS)))
         self.cavitation = cavitation
-        if cavitation == "jfo" and (comm.size != 1 or degree != 1 or elastic is not None):
-            raise InputError("cavitation = 'jfo' needs the serial P1 film of a rigid bushing (allowed: one rank, "
-                             "degree 1, elastic none)")
+        if cavitation == "jfo" and (comm.size != 1 or degree != 1):
+            raise InputError("cavitation = 'jfo' needs the serial P1 film (allowed: one rank, degree 1)")
         if elastic is not None:
             if comm.size != 1 or degree != 1:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
@@ -456,8 +457,9 @@ class FilmModel:
             self.solver.update()
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
-        self._ehd = self._elastic_film(options) if elastic is not None else None
+        # the mass-conserving film (with an elastic bushing: the kinematic sensitivities of its residual)
         self._jfo = self._jfo_film() if cavitation == "jfo" else None
+        self._ehd = self._elastic_film(options) if elastic is not None else None
         # nodal areas of the film (integral of each basis function): the cavitated area
         self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
         self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -489,9 +491,18 @@ class FilmModel:
             def pressure_map(Q: np.ndarray):
                 p = self._true_pressure(Q)
                 return p, self.piezo.ratio(p * self.scales.pressure)
-        ehd = ElasticFilm(self._operator, self.P, self.W, self.solver.lower.x.array[:n].copy(), derivatives, shapes,
-                          options, pressure_map=pressure_map,
-                          q_limit=None if self.piezo is None else self.piezo.q_limit / self.scales.pressure)
+        q_limit = None if self.piezo is None else self.piezo.q_limit / self.scales.pressure
+        lower = self.solver.lower.x.array[:n].copy()
+        if self._jfo is not None:  # the mass-conserving film on the elastic bushing (solver.film.ehd_jfo)
+            k_theta, k_z, flux, h_T, rate = self._jfo_coefficients()
+            prescribed = {name: (dofs, u) for name, (dofs, u) in self._jfo.prescribed.items()}
+            cavitation = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
+            ehd = ElasticJFOFilm(self._operator, self.P, self.W, np.full(n, cavitation), derivatives, shapes,
+                                 (k_theta, k_z, flux, h_T, rate), g.W, prescribed, pressure_map=pressure_map,
+                                 q_limit=q_limit)
+        else:
+            ehd = ElasticFilm(self._operator, self.P, self.W, lower, derivatives, shapes, options,
+                              pressure_map=pressure_map, q_limit=q_limit)
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
         return ehd
@@ -505,9 +516,21 @@ class FilmModel:
         (rate form). Midpoint quadrature, as the Reynolds operator. The prescribed dofs hold u = P -
         P_cav (the edges and seam at ambient, the supply at its pressure): with ambient at the
         cavitation pressure the edges are a flooded boundary at P_cav (u = 0: theta = 1)."""
+        g = self.geometry
+        k_theta, k_z, flux, h_T, rate = self._jfo_coefficients()
+        D = k_theta * ufl.outer(g.tangent, g.tangent) + k_z * ufl.outer(g.axial, g.axial)
+        lower = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
+        prescribed = {name: (dofs, value - lower) for name, (dofs, value) in self._prescribed().items()}
+        return JFOSolver(self.V, h_T, None, prescribed, D=D, flux=flux * g.tangent, rate=rate,
+                         quadrature_degree=1, variables=list(g.variables().values()),
+                         options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
+
+    def _jfo_coefficients(self):
+        """(k_theta, k_z, flux, h_T, rate) of the mass-conserving film (UFL): the Reynolds forms'
+        H^3 phi_x and H^3 phi_y, the Couette flux per unit film fraction along the sliding direction,
+        the mean gap and its rate phi_c dH/dT."""
         g, prm = self.geometry, self.params
         k_theta, k_z, _ = film.reynolds_coefficients(g, self.roughness)
-        D = k_theta * ufl.outer(g.tangent, g.tangent) + k_z * ufl.outer(g.axial, g.axial)
         if self.roughness is None:
             h_T, phi_c, shear = g.H, 1.0, 0.0
         else:
@@ -515,12 +538,7 @@ class FilmModel:
             h_T = prm.S * self.roughness.mean_gap(Hs, mod=ufl)
             phi_c = self.roughness.contact_factor(Hs, mod=ufl)
             shear = g.U_half_diff * prm.S * self.roughness.shear_flow(Hs, mod=ufl)
-        flux = (g.U_mean * h_T + shear) * g.tangent
-        lower = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
-        prescribed = {name: (dofs, value - lower) for name, (dofs, value) in self._prescribed().items()}
-        return JFOSolver(self.V, h_T, None, prescribed, D=D, flux=flux, rate=phi_c * g.dH_dT,
-                         quadrature_degree=1, variables=list(g.variables().values()),
-                         options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
+        return k_theta, k_z, g.U_mean * h_T + shear, h_T, phi_c * g.dH_dT
 
     def _build_forms(self) -> None:
         g, P, s = self.geometry, self.P, self.scales
@@ -675,6 +693,8 @@ class FilmModel:
         """The film state of the last solve, a copy, for ``commit_deformation``: the coupled unknowns
         (pressure, then the elastic ones) of an elastic bushing, the JFO unknown u (theta = 1 +
         min(u, 0)) of the mass-conserving film; None without history."""
+        if isinstance(self._ehd, ElasticJFOFilm):
+            return np.concatenate([self._ehd.u, self._ehd.q])
         if self._jfo is not None:
             return self._jfo.u.x.array[: len(self._owned_coords)].copy()
         if self._ehd is None:
@@ -697,6 +717,10 @@ class FilmModel:
     def start_from(self, state: np.ndarray) -> None:
         """Make ``state`` (from deformation_state) the next solve's warm start: the state one
         integrator step before is a far better start than a solve of another time."""
+        if isinstance(self._ehd, ElasticJFOFilm):
+            self._ehd.u = state[: self._ehd.n].copy()
+            self._ehd.q = state[self._ehd.n :].copy()
+            return
         if self._jfo is not None:
             self._jfo.u.x.array[: len(state)] = state
             return
@@ -816,6 +840,8 @@ class FilmModel:
             self._set_rate(time_s)
         if self._jfo is not None:
             self._jfo_rate = self._film_fraction_rate(time_s)
+            if self._ehd is not None:
+                self._ehd.rate = self._jfo_rate
         try:
             result = self._solve(kin, start)
         except FilmNotConverged as err:
@@ -842,6 +868,9 @@ class FilmModel:
         self.set_kinematics(solved)
         if self._ehd is not None:
             iterations = self._solve_elastic()
+            if self._jfo is not None:
+                self._jfo_solution = self._ehd.solution()
+                self._operator.evaluate()  # (its integrals: the Couette torques of the solution)
         elif self._jfo is not None:
             iterations = self._solve_jfo()
         else:
@@ -935,11 +964,12 @@ class FilmModel:
         self._start = history[-1] if history else None
         if not history:
             return None
-        t_n, u_n = history[-1]
+        n = len(self._owned_coords)  # (a state is u, or (u, q) with an elastic bushing)
+        t_n, u_n = history[-1][0], history[-1][1][:n]
         h = time_s - t_n
         inverse_step, theta_ref = 1.0 / h, 1.0 + np.minimum(u_n, 0.0)
         if len(history) == 2:
-            t_m, u_m = history[0]
+            t_m, u_m = history[0][0], history[0][1][:n]
             w = h / (t_n - t_m)
             if w <= self.BDF2_MAX_RATIO:
                 inverse_step = (1 + 2 * w) / ((1 + w) * h)
@@ -1002,6 +1032,17 @@ class FilmModel:
             return math.nan
         R, c = self.bearing.radius, self.bearing.clearance
         return float(np.sum(self._jfo_solution.content)) * float(self.mesh_spec.multiplicity) * R**2 * c
+
+    def _elastic_jfo_derivatives(self) -> list[np.ndarray]:
+        """dR_u/dc of the elastic JFO film at its solution, from the JFO forms (which see the deformation
+        through the geometry): the JFO solver is brought to that state first."""
+        jfo, ehd, n = self._jfo, self._ehd, self._ehd.n
+        jfo.update()
+        jfo.u.x.array[:n] = ehd.u
+        jfo.pressure.x.array[:n] = np.maximum(ehd.u, 0.0)
+        jfo.theta.x.array[:n] = 1.0 + np.minimum(ehd.u, 0.0)
+        jfo._history = (None, None) if ehd.rate is None else (ehd.rate[0], ehd.rate[1])
+        return jfo.residual_derivatives()
 
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
@@ -1086,7 +1127,7 @@ class FilmModel:
         dr, gradients, w_gradients = vectors[:n_in], vectors[n_in : n_in + n_grad], vectors[n_in + n_grad :]
         for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
-        if self._jfo is not None:  # the mass-conserving film's own sensitivities (solver.film.jfo)
+        if self._jfo is not None and self._ehd is None:  # the mass-conserving film's own (solver.film.jfo)
             dP = []
             for d_k in self._jfo.sensitivities(self._jfo.residual_derivatives()):
                 vec = dr[0].duplicate()
@@ -1094,7 +1135,8 @@ class FilmModel:
                 dP.append(vec)
         elif self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
             names = list(self.geometry.variables())
-            d = self._ehd.sensitivities(self._ehd.residual_derivatives([v.getArray().copy() for v in dr], names))
+            dr_film = [v.getArray().copy() for v in dr] if self._jfo is None else self._elastic_jfo_derivatives()
+            d = self._ehd.sensitivities(self._ehd.residual_derivatives(dr_film, names))
             n = self._ehd.n
             dP = []
             for d_k in d:
@@ -1174,7 +1216,7 @@ class FilmModel:
         if self.W is not None:
             functions["deformation"].x.array[:] = self.W.x.array * self.bearing.clearance
         if self._jfo is not None:
-            functions["film_fraction"].x.array[:] = self._jfo.theta.x.array
+            functions["film_fraction"].x.array[: len(self._jfo_solution.theta)] = self._jfo_solution.theta
         for name, expression in expressions.items():
             functions[name].interpolate(expression)
         return functions

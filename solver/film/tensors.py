@@ -89,6 +89,7 @@ class MidpointOperator:
         # circumferential slopes (the elastic film's Jacobian, solver.film.ehd, differentiates A P + l
         # with respect to the coefficients)
         self.dofs, self.local_theta, self.local_z, self.g_theta = dofs, local_theta, local_z, g_theta
+        self.positions = position.reshape(-1, 3, 3)  # (cell, i, j) -> index in the CSR layout
         self.centroid_angle = np.arctan2(centroid[:, 1], centroid[:, 0])
         self.integrals = np.zeros(len(integrals))
         self.cells = cells

@@ -215,3 +215,25 @@ def test_a_film_that_cannot_be_solved_is_one_line_exit_1(tempdir):
     assert proc.returncode == 1, proc.stderr
     assert len(lines) == 1 and lines[0].startswith("error:") and "elastic bushing" in lines[0], proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.serial
+def test_jfo_cavitation_in_the_bearing_command():
+    """--cavitation jfo under a load with a 30 deg axial groove at 2 bar: the steady film balances (supply
+    flow = side flow to 1e-9, the consistent fluxes), carries the load (1e-6: the equilibrium's tolerance),
+    reports its ruptured area, and needs less oil than the Reynolds condition claims to (which creates
+    oil in its cavity: its side flow exceeds its supply); --degree 2 is one line, exit 2."""
+    args = [*GOOD, "--load", "1000", "--groove-angle", "90", "--groove-arc", "30", "--groove-length", "0.01",
+            "--supply-pressure", "2e5", "--cavitation-pressure=-5e4", "--json", "--mesh-size", "0.1"]
+    reports = {}
+    for cavitation in ("reynolds", "jfo"):
+        proc = run_cli("bearing", *args, "--cavitation", cavitation)
+        assert proc.returncode == 0, proc.stderr
+        reports[cavitation] = json.loads(proc.stdout)
+    jfo, reynolds = reports["jfo"], reports["reynolds"]
+    assert jfo["cavitation"] == "jfo" and jfo["load_N"] == pytest.approx(1000, rel=1e-6)
+    assert 0.05 < jfo["cavitated_area_ratio"] < 0.95 and 0.05 < reynolds["cavitated_area_ratio"] < 0.95
+    assert jfo["supply_flow_m3_per_s"] == pytest.approx(jfo["side_flow_m3_per_s"], rel=1e-9)
+    assert reynolds["side_flow_m3_per_s"] > 1.01 * reynolds["supply_flow_m3_per_s"]
+    proc = run_cli("bearing", *args, "--cavitation", "jfo", "--degree", "2")
+    assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "serial P1 film" in proc.stderr

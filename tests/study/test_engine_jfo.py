@@ -116,12 +116,13 @@ def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, m
 
 
 @pytest.mark.serial
-def test_jfo_with_an_elastic_bushing_is_one_line(tmp_path):
-    """Not built yet: the run says so in one line, exit 2, nothing written."""
-    case = _jfo_case(tmp_path / "elastic")
+def test_jfo_with_the_max_gap_inlet_is_one_line(tmp_path):
+    """The max-gap inlet turns the film with the pin, which a film fraction's history cannot follow: the
+    run says so in one line, exit 2, nothing written."""
+    case = _jfo_case(tmp_path / "maxgap")
     toml = case / "case.toml"
-    toml.write_text(toml.read_text().replace('elastic = "none"', 'elastic = "winkler"\nbushing_thickness_mm = 1.5', 1))
+    toml.write_text(toml.read_text().replace('inlet = "none"', 'inlet = "max-gap"', 1))
     result = run_cli("run", str(case), "--quiet")
     assert result.returncode == 2
-    assert result.stderr.strip().count("\n") == 0 and "oil.cavitation = 'jfo'" in result.stderr
+    assert result.stderr.strip().count("\n") == 0 and "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'" in result.stderr
     assert "Traceback" not in result.stderr and not (case / "results" / "results.nc").exists()
