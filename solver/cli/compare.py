@@ -2,9 +2,11 @@
 
 Each RUN is a case directory (its ``results/results.nc``) or a results file. Prints one row per run
 (or one JSON object with ``--json``): the cycle minimum of h_min, the maxima of p_max, of the asperity
-force and of the bushing's deformation, the cycle mean of the friction power. With ``--output PNG``
-rank 0 also writes the plot: h_min, p_max, asperity force and friction power over the crank angle, one
-line per run (e.g. the rigid and the elastic small end of the same engine).
+force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
+film's share of the bearing area (cavitation model beside it). With ``--output PNG`` rank 0 also
+writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
+cavitated area over the crank angle, one line per run (e.g. the rigid and the elastic small end of the
+same engine, or the Reynolds condition and the mass-conserving film).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from solver.study.thermal import cycle_mean
 
 # (variable, label, scale to the plotted unit)
 PANELS = (("h_min", "h_min [um]", 1e6), ("p_max", "p_max [MPa]", 1e-6), ("F_asperity", "asperity force [N]", 1.0),
-          ("friction_power", "friction power [W]", 1.0))
+          ("friction_power", "friction power [W]", 1.0), ("cavitated_area_ratio", "cavitated area ratio", 1.0))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,15 +56,20 @@ def summary(ds: xr.Dataset, label: str) -> dict:
             "h_min_min_m": nan_reduce(np.nanmin, ds.h_min.values), "p_max_max_Pa": nan_reduce(np.nanmax, ds.p_max.values),
             "F_asperity_max_N": nan_reduce(np.nanmax, ds.F_asperity.values),
             "friction_power_mean_W": cycle_mean(ds.friction_power.values, angle),
-            "deformation_max_m": nan_reduce(np.nanmax, deformation)}
+            "deformation_max_m": nan_reduce(np.nanmax, deformation),
+            "cavitation": str(ds.attrs.get("oil.cavitation", "reynolds")),
+            "cavitated_area_mean": (cycle_mean(ds.cavitated_area_ratio.values, angle) if "cavitated_area_ratio" in ds
+                                    else float("nan"))}
 
 
 def plot(datasets: dict[str, xr.Dataset], path: Path) -> None:
-    """One panel per PANELS variable over the crank angle, one line per run."""
-    fig, axes = io.subplots(len(PANELS), 1, figsize=(8, 9), sharex=True, constrained_layout=True)
-    for ax, (name, label, scale) in zip(axes, PANELS):
+    """One panel per PANELS variable (that some run has) over the crank angle, one line per run."""
+    panels = [panel for panel in PANELS if any(panel[0] in ds for ds in datasets.values())]
+    fig, axes = io.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True, constrained_layout=True)
+    for ax, (name, label, scale) in zip(axes, panels):
         for run, ds in datasets.items():
-            ax.plot(ds.crank_angle.values, ds[name].values * scale, lw=1.2, label=run)
+            if name in ds:
+                ax.plot(ds.crank_angle.values, ds[name].values * scale, lw=1.2, label=run)
         ax.set_ylabel(label)
         for x in (0, 180, 360, 540, 720):
             ax.axvline(x, color="0.85", lw=0.8, zorder=0)
@@ -97,12 +104,13 @@ def run(args: argparse.Namespace, comm) -> int:
                 print(json.dumps({"runs": rows, "plot": str(args.output) if args.output else None}))
             else:
                 print(f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} {'max F_asp':>10} "
-                      f"{'friction':>9} {'max w':>8}")
+                      f"{'friction':>9} {'max w':>8} {'cavitation':>10} {'cav. area':>9}")
                 for row in rows:
                     print(f"{row['run']:<28} {row['elastic']:>8} {row['piezoviscosity']:>8} "
                           f"{row['h_min_min_m'] * 1e6:>8.3f} um {row['p_max_max_Pa'] / 1e6:>6.1f} MPa "
                           f"{row['F_asperity_max_N']:>8.1f} N {row['friction_power_mean_W']:>7.3f} W "
-                          f"{row['deformation_max_m'] * 1e6:>5.2f} um")
+                          f"{row['deformation_max_m'] * 1e6:>5.2f} um {row['cavitation']:>10} "
+                          f"{row['cavitated_area_mean']:>9.3f}")
                 if args.output is not None:
                     print(f"plot: {args.output}")
     finally:
