@@ -1,7 +1,7 @@
 """Verification study of the coupled engine (too long for CI; its table goes into the README).
 
     .venv/bin/python3 bench/verify_engine.py [--case DIR] [--base-mesh H] [--base-step DEG]
-        [--base-rtol R] [--max-cycles N] [--only VARIANT ...] [--keep]
+        [--base-rtol R] [--max-cycles N] [--periodic-tolerance T] [--only VARIANT ...] [--keep]
 
 Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's) with the mixed finite-element film at a base resolution and refined
 variants, and physical variants, each until periodic (at most 3 cycles), and prints:
@@ -64,12 +64,16 @@ def main() -> None:
     parser.add_argument("--base-step", type=float, default=5.0)
     parser.add_argument("--base-rtol", type=float, default=1e-5)
     parser.add_argument("--max-cycles", type=int, default=3)
+    parser.add_argument("--periodic-tolerance", type=float, default=0.01,
+                        help="solver.periodic_tolerance of every variant (the change of the cycle minimum of h_min, "
+                             "/ clearance, below which a run is periodic)")
     parser.add_argument("--no-base", action="store_true", help="skip the base run (run it in another process)")
     parser.add_argument("--keep", action="store_true")
     parser.add_argument("--only", nargs="*", default=None, help="run only these variants (and the base)")
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="verify-engine-"))
-    base = {"joint": '"mixed-fem"', "max_cycles": args.max_cycles, "mesh_size": args.base_mesh,
+    base = {"joint": '"mixed-fem"', "max_cycles": args.max_cycles, "periodic_tolerance": args.periodic_tolerance,
+            "mesh_size": args.base_mesh,
             "step_deg": args.base_step, "rtol": args.base_rtol, "field_angles_deg": "[]", "field_step_deg": 0}
     variants = {
         "base": (base, ""),
@@ -98,8 +102,8 @@ def main() -> None:
     if "base" not in rows:
         return
     b = rows["base"]
-    print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g} (cycles: {b['cycles']}, "
-          f"periodic: {b['periodic']})")
+    print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
+          f"tolerance {args.periodic_tolerance:g} (cycles: {b['cycles']}, periodic: {b['periodic']})")
     print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | max asperity force [N] | "
           "max p_max [MPa] | energy balance error | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|")
