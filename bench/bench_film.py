@@ -1,7 +1,7 @@
 """Benchmark of the film solve (not a test): cold and warm time per solve, VI iterations, dofs and
 the So error against Butenschoen's table, at three mesh sizes.
 
-    .venv/bin/python3 bench/bench_film.py [--repeat N]
+    .venv/bin/python3 bench/bench_film.py [--repeat N] [--cavitation reynolds|jfo]
 
 Case: B/D = 1, eccentricity 0.6, journal rotation (table: So = 1.3146, attitude 50.536 deg).
 - setup: mesh generation + forms (JIT compilation is cached; the first-ever run is reported apart);
@@ -28,10 +28,10 @@ R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 2 * math.pi * 50
 SO_TABLE, ATTITUDE_TABLE = 1.3146, 50.536
 
 
-def run(mesh_size: float, repeat: int) -> dict:
+def run(mesh_size: float, repeat: int, cavitation: str = "reynolds") -> dict:
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU)
     start = time.perf_counter()
-    model = FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size)
+    model = FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size, cavitation=cavitation)
     setup = time.perf_counter() - start
     direction = -1.0
     kin = lambda eps: Kinematics((eps * C * math.cos(direction), eps * C * math.sin(direction)), (0, 0), OMEGA, 0)
@@ -52,7 +52,7 @@ def run(mesh_size: float, repeat: int) -> dict:
     jac = (time.perf_counter() - start) / repeat
     # the floor of a warm solve: one numeric refactorisation of the same matrix and one solve with it
     lu, limit = model.solver.lu, float("nan")
-    if lu is not None:
+    if lu is not None and cavitation == "reynolds":
         inactive = model.solver.inactive_set()
         b, x = lu.K.createVecs()
         b.set(0.0)
@@ -71,6 +71,8 @@ def run(mesh_size: float, repeat: int) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=20)
+    parser.add_argument("--cavitation", choices=("reynolds", "jfo"), default="reynolds",
+                        help="the film's cavitation model (jfo: the mass-conserving film, steady)")
     args = parser.parse_args()
     start = time.perf_counter()
     FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=OMEGA,
@@ -81,7 +83,7 @@ def main() -> None:
     print(header)
     print("|" + "---|" * 8)
     for h in (0.1, 0.07, 0.035):
-        r = run(h, args.repeat)
+        r = run(h, args.repeat, args.cavitation)
         print(f"| {r['mesh_size']} | {r['dofs']} | {r['setup_s']:.2f} | {r['cold_ms']:.1f} ({r['cold_its']}) | "
               f"{r['warm_ms']:.2f} ({r['warm_its']:.0f}) | {r['limit_ms']:.2f} | {r['jacobian_ms']:.1f} | {r['So_error_pct']:+.2f} % |")
 

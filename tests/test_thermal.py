@@ -23,7 +23,7 @@ from solver.dynamics.joint import ShortBearingJoint
 from solver.errors import InputError
 from solver.oil import GRADES
 from solver.study.thermal import EffectiveTemperature, ThermalError, ThermalModel
-from tests.conftest import assert_one_line_error, run_cli
+from tests.conftest import assert_one_line_error, interrupt_and_resume, run_cli
 
 OIL = GRADES["5W-30"]
 SUPPLY = 90.0  # C
@@ -192,19 +192,7 @@ def test_interrupted_effective_run_resumes_the_thermal_iteration(tmp_path, monke
     solver = 'joint = "short-bearing"\nstep_deg = 8\nmax_cycles = 3\nfield_step_deg = 0\n'
     straight = simulation.run_case(write_case(tmp_path / "straight", oil, solver), MPI.COMM_SELF)
     case = write_case(tmp_path / "interrupted", oil, solver)
-    original = simulation._Run.integrate_cycle
-
-    def stop_in_third_cycle(self, cycle, *args, **kwargs):
-        if cycle == 2:
-            raise KeyboardInterrupt
-        return original(self, cycle, *args, **kwargs)
-
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", stop_in_third_cycle)
-    with pytest.raises(KeyboardInterrupt):
-        simulation.run_case(case, MPI.COMM_SELF)
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", original)
-    resumed = simulation.run_case(case, MPI.COMM_SELF)
-    assert "resuming after cycle 2" in (case / "results" / "run.log").read_text()
+    resumed = interrupt_and_resume(case, monkeypatch, 2)
     with xr.open_dataset(straight.results) as a, xr.open_dataset(resumed.results) as b:
         temperatures = a.attrs["thermal.temperatures_C"]
         assert len(temperatures) == 3 and len(set(temperatures)) == 3  # three different temperatures

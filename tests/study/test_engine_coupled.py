@@ -22,7 +22,7 @@ import xarray as xr
 from scipy.integrate import simpson
 
 from solver.study.simulation import SimulationError, run_case
-from tests.conftest import ROOT, run_cli
+from tests.conftest import ROOT, interrupt_and_resume, run_cli
 
 REFERENCE = ROOT / "cases" / "reference-2000rpm"
 CONTRACT = ["F_gas", "x_piston", "a_piston", "pin_force_x", "pin_force_y", "ideal_pin_force_x", "ideal_pin_force_y",
@@ -102,25 +102,10 @@ def test_results_follow_the_data_contract(short_bearing_run):
 def test_interrupted_run_resumes_and_gives_the_same_numbers(tmp_path, monkeypatch):
     """A run stopped after its first cycle resumes from the checkpoint and ends with the same numbers
     as an uninterrupted run (the integration is deterministic: exact equality)."""
-    from solver.study import simulation
-
     solver_keys = 'joint = "short-bearing"\nmax_cycles = 2\nstep_deg = 5\nperiodic_tolerance = 1e-9\n'
     straight = run_case(make_case(tmp_path / "straight", solver_keys), MPI.COMM_SELF)
     case = make_case(tmp_path / "interrupted", solver_keys)
-    original = simulation._Run.integrate_cycle
-
-    def stop_in_second_cycle(self, cycle, *args, **kwargs):
-        if cycle == 1:
-            raise KeyboardInterrupt
-        return original(self, cycle, *args, **kwargs)
-
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", stop_in_second_cycle)
-    with pytest.raises(KeyboardInterrupt):
-        run_case(case, MPI.COMM_SELF)
-    assert (case / "results" / "checkpoint.npz").exists() and not (case / "results" / "results.nc").exists()
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", original)
-    resumed = run_case(case, MPI.COMM_SELF)
-    assert "resuming after cycle 1" in (case / "results" / "run.log").read_text()
+    resumed = interrupt_and_resume(case, monkeypatch, 1)
     with xr.open_dataset(straight.results) as a, xr.open_dataset(resumed.results) as b:
         for name in ("pin_force_x", "ecc_x", "ecc_y", "h_min", "crank_torque"):
             np.testing.assert_array_equal(a[name].values, b[name].values)

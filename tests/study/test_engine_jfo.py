@@ -17,7 +17,7 @@ from mpi4py import MPI
 from scipy.integrate import simpson
 
 from solver.study.simulation import run_case
-from tests.conftest import run_cli
+from tests.conftest import interrupt_and_resume, run_cli
 from tests.study.test_engine_coupled import make_case
 
 JFO = '[oil]\ncavitation = "jfo"\ncavitation_pressure_bar = -0.9\n'
@@ -93,23 +93,8 @@ def test_the_paraview_snapshot_carries_the_film_fraction(jfo_run):
 def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, monkeypatch):
     """Stopped after the first cycle and resumed from the checkpoint, the run ends with the same numbers
     as the uninterrupted one (exact): the committed film fractions are in the checkpoint."""
-    from solver.study import simulation
-
     straight, _, _, _ = jfo_run
-    case = _jfo_case(tmp_path / "interrupted")
-    original = simulation._Run.integrate_cycle
-
-    def stop_in_second_cycle(self, cycle, *args, **kwargs):
-        if cycle == 1:
-            raise KeyboardInterrupt
-        return original(self, cycle, *args, **kwargs)
-
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", stop_in_second_cycle)
-    with pytest.raises(KeyboardInterrupt):
-        run_case(case, MPI.COMM_SELF)
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", original)
-    resumed = run_case(case, MPI.COMM_SELF)
-    assert "resuming after cycle 1" in (case / "results" / "run.log").read_text()
+    resumed = interrupt_and_resume(_jfo_case(tmp_path / "interrupted"), monkeypatch, 1)
     with xr.open_dataset(straight.results) as a, xr.open_dataset(resumed.results) as b:
         for name in ("ecc_x", "ecc_y", "h_min", "oil_volume", "cavitated_area_ratio"):
             np.testing.assert_array_equal(a[name].values, b[name].values)
