@@ -38,6 +38,13 @@ the Reynolds condition creates in the cavitated zone (the sum of the VI's residu
 side flow. The Reynolds cavitation model does not conserve mass: only without cavitation is the
 supply flow the side flow.
 
+Cavitation (``cavitation``): ``"reynolds"``, the SNES VI P >= P_cav above; ``"jfo"``, the
+mass-conserving film of solver.film.jfo (and solver.film.ehd_jfo with an elastic bushing) with the same
+flow factors, whose film fraction is film state: committed after every accepted integrator step
+(``commit_deformation``, as the elastic bushing's deformation), its rate by BDF2 through the committed
+states. Its flows are the consistent fluxes of the JFO residual, so a steady film's supply equals its
+side flow; the cavitated area and the oil held in the film are in FilmResult.
+
 Equilibrium under a load (``equilibrium``) is found by Newton's method on the two eccentricity
 components with the film's Jacobian.
 """
