@@ -74,7 +74,7 @@ from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.ehd import ElasticFilm, ModalCompliance, WinklerLayer, deformation_peak
-from solver.film.ehd_jfo import ElasticJFOFilm
+from solver.film.ehd_jfo import ElasticJFOFilm, MidpointJFO
 from solver.film.mesh import (
     TAGS,
     AxialGroove,
@@ -467,6 +467,13 @@ class FilmModel:
         # the mass-conserving film (with an elastic bushing: the kinematic sensitivities of its residual)
         self._jfo = self._jfo_film() if cavitation == "jfo" else None
         self._ehd = self._elastic_film(options) if elastic is not None else None
+        self._jfo_derivatives = None  # the JFO residual's kinematic derivatives at the cell midpoints
+        if self._jfo is not None:
+            is_bc = np.zeros(len(self._owned_coords), dtype=bool)
+            for dofs, _ in self._jfo.prescribed.values():
+                is_bc[dofs] = True
+            self._jfo_derivatives = MidpointJFO(self._operator, self._jfo_coefficients(),
+                                                list(self.geometry.variables().values()), is_bc)
         # nodal areas of the film (integral of each basis function): the cavitated area
         self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
         self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -529,8 +536,7 @@ class FilmModel:
         lower = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
         prescribed = {name: (dofs, value - lower) for name, (dofs, value) in self._prescribed().items()}
         return JFOSolver(self.V, h_T, None, prescribed, D=D, flux=flux * g.tangent, rate=rate,
-                         quadrature_degree=1, variables=list(g.variables().values()),
-                         options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
+                         quadrature_degree=1, options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
 
     def _jfo_coefficients(self):
         """(k_theta, k_z, flux, h_T, rate) of the mass-conserving film (UFL): the Reynolds forms'
@@ -1040,17 +1046,6 @@ class FilmModel:
         R, c = self.bearing.radius, self.bearing.clearance
         return float(np.sum(self._jfo_solution.content)) * float(self.mesh_spec.multiplicity) * R**2 * c
 
-    def _elastic_jfo_derivatives(self) -> list[np.ndarray]:
-        """dR_u/dc of the elastic JFO film at its solution, from the JFO forms (which see the deformation
-        through the geometry): the JFO solver is brought to that state first."""
-        jfo, ehd, n = self._jfo, self._ehd, self._ehd.n
-        jfo.update()
-        jfo.u.x.array[:n] = ehd.u
-        jfo.pressure.x.array[:n] = np.maximum(ehd.u, 0.0)
-        jfo.theta.x.array[:n] = 1.0 + np.minimum(ehd.u, 0.0)
-        jfo._history = (None, None) if ehd.rate is None else (ehd.rate[0], ehd.rate[1])
-        return jfo.residual_derivatives()
-
     def _elastic_h_min(self) -> float:
         """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
         minimum gap (mid-plane, along the eccentricity) plus the deformation of the nearest node there
@@ -1136,13 +1131,16 @@ class FilmModel:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
         if self._jfo is not None and self._ehd is None:  # the mass-conserving film's own (solver.film.jfo)
             dP = []
-            for d_k in self._jfo.sensitivities(self._jfo.residual_derivatives()):
+            n = len(self._owned_coords)
+            dr_u = self._jfo_derivatives.kinematic_derivatives(self._jfo.u.x.array[:n], self._jfo_rate)
+            for d_k in self._jfo.sensitivities(dr_u):
                 vec = dr[0].duplicate()
                 vec.setArray(d_k)
                 dP.append(vec)
         elif self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
             names = list(self.geometry.variables())
-            dr_film = [v.getArray().copy() for v in dr] if self._jfo is None else self._elastic_jfo_derivatives()
+            dr_film = ([v.getArray().copy() for v in dr] if self._jfo is None
+                       else self._jfo_derivatives.kinematic_derivatives(self._ehd.u, self._ehd.rate))
             d = self._ehd.sensitivities(self._ehd.residual_derivatives(dr_film, names))
             n = self._ehd.n
             dP = []

@@ -53,6 +53,93 @@ OPTIONS: dict[str, str | float | int] = {
 }
 
 
+class MidpointJFO:
+    """The JFO film's matrices as sums over cells of fixed local matrices times the coefficients at the
+    cell midpoints (the operator's rule, solver.film.tensors), and their derivatives.
+
+    With P1 and the midpoint rule the Couette matrix of cell K is ``C^K_ij = -|K|/3 flux(c_K)
+    t.grad(phi_i)`` (any j), the Poiseuille matrix ``k_theta(c_K) L_theta + k_z(c_K) L_z`` and the
+    lumped storage |K|/3 h_T(c_K) and |K|/3 rate(c_K) at each vertex; so the derivative of the
+    residual R_u with respect to anything the five coefficients (k_theta, k_z, flux, h_T, rate) depend
+    on is the same sum with their derivatives (``local_bases``, ``local_derivative``), the upwinding's
+    edge diffusion following the entry that is its maximum at the state (``upwinded``).
+
+    Args:
+        op: the film's MidpointOperator (serial P1).
+        coefficients: the five UFL coefficients.
+        variables: ufl.variables to differentiate them by (``kinematic_derivatives``).
+        is_bc: the prescribed dofs (their rows of R_u are u - u_bc: zero derivatives).
+    """
+
+    def __init__(self, op, coefficients, variables, is_bc: np.ndarray):
+        self.op, self.n_variables, self.is_bc = op, len(variables), is_bc
+        n = len(op.indptr) - 1
+        values = list(coefficients)
+        derivatives = [ufl.algorithms.expand_derivatives(ufl.diff(e, c)) for c in variables for e in values]
+        self.expression = fem.Expression(ufl.as_vector(values + derivatives), MIDPOINT)
+        self.local_couette = -(op.weight / 3.0)[:, None, None] * np.repeat(op.g_theta[:, :, None], 3, axis=2)
+        self.T_C = scipy.sparse.csr_matrix((self.local_couette.ravel(), (op.positions.ravel(), np.repeat(op.cells, 9))),
+                                           shape=(len(op.indices), len(op.cells)))
+        self.rows = np.repeat(np.arange(n), np.diff(op.indptr))
+        keys = self.rows.astype(np.int64) * n + op.indices
+        self.transpose = np.searchsorted(keys, op.indices.astype(np.int64) * n + self.rows)
+        self.off = self.rows != op.indices
+        self.diagonal = np.flatnonzero(~self.off)
+
+    def upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(upwinded values, d_ij, pick_self) of the Couette matrix's CSR values C: Kuzmin's edge
+        diffusion d_ij = max(0, C_ij, C_ji), the pair's larger entry picked the same way from both
+        sides (ties: the one in the lower row)."""
+        Ct = C[self.transpose]
+        pick_self = (C > Ct) | ((C == Ct) & (self.rows < self.op.indices))
+        d = np.where(self.off, np.maximum(0.0, np.where(pick_self, C, Ct)), 0.0)
+        values = C - d
+        values[self.diagonal] += np.add.reduceat(d, self.op.indptr[:-1])
+        return values, d, pick_self
+
+    def local_bases(self, u: np.ndarray, selection, rate) -> np.ndarray:
+        """(5, cell, 3): d R_u at each cell's vertices per unit change of each coefficient at the cell's
+        midpoint, at fixed u; ``selection`` = (d, pick_self) of ``upwinded`` at the state; ``rate`` =
+        (dT, theta_ref) or None. R_u is linear in the five coefficients of a cell, so the derivative
+        with respect to any parameter s is ``sum_j dc_j/ds bases_j`` (``local_derivative``)."""
+        op = self.op
+        plus, theta = np.maximum(u, 0.0)[op.dofs], (1.0 + np.minimum(u, 0.0))[op.dofs]  # (cell, 3)
+        third = (op.weight / 3.0)[:, None]
+        d, pick = selection
+        active = d[op.positions] > 0.0
+        picked, other = pick[op.positions] & active, ~pick[op.positions] & active  # d_ij follows C_ij or C_ji
+        couette = self.local_couette
+        diffusion = np.where(picked, couette, 0.0) + np.where(other, np.swapaxes(couette, 1, 2), 0.0)
+        diffusion[:, np.arange(3), np.arange(3)] = 0.0
+        bases = np.empty((5,) + plus.shape)
+        bases[0] = np.einsum("cij,cj->ci", op.local_theta, plus)
+        bases[1] = np.einsum("cij,cj->ci", op.local_z, plus)
+        bases[2] = (np.einsum("cij,cj->ci", couette, theta)
+                    - np.einsum("cij,cij->ci", diffusion, theta[:, None, :] - theta[:, :, None]))
+        bases[3] = 0.0 if rate is None else third * (theta - rate[1][op.dofs]) / rate[0]
+        bases[4] = third * theta
+        return bases
+
+    @staticmethod
+    def local_derivative(dc: np.ndarray, bases: np.ndarray) -> np.ndarray:
+        """d R_u / d s at each cell's vertices (cell, 3) from the coefficients' derivatives dc (cell, 5)."""
+        return np.einsum("cj,jci->ci", dc, bases)
+
+    def kinematic_derivatives(self, u: np.ndarray, rate) -> list[np.ndarray]:
+        """dR_u/dc for every variable at fixed u (zero on the prescribed dofs), at the current constants."""
+        op = self.op
+        values = self.expression.eval(op.cells)
+        bases = self.local_bases(u, self.upwinded(self.T_C @ values[:, 2])[1:], rate)
+        n = len(u)
+        out = []
+        for k in range(self.n_variables):
+            local = self.local_derivative(values[:, 5 + 5 * k : 10 + 5 * k], bases)
+            d = np.bincount(op.dofs.ravel(), weights=local.ravel(), minlength=n)
+            d[self.is_bc] = 0.0
+            out.append(d)
+        return out
+
+
 class ElasticJFOFilm(ElasticFilm):
     """The coupled JFO film and bushing (module docstring) on a FilmModel's operator.
 
@@ -66,10 +153,6 @@ class ElasticJFOFilm(ElasticFilm):
     def __init__(self, operator, P, W, lower, derivatives, shapes, coefficients, W_variable, prescribed,
                  options=None, pressure_map=None, q_limit=None):
         super().__init__(operator, P, W, lower, derivatives, shapes, options, pressure_map, q_limit)
-        values = list(coefficients)
-        self.jfo_expression = fem.Expression(
-            ufl.as_vector(values + [ufl.algorithms.expand_derivatives(ufl.diff(e, W_variable)) for e in values]),
-            MIDPOINT)
         op, n = self.op, self.n
         self.prescribed = {name: (np.asarray(dofs, np.int32), float(value)) for name, (dofs, value) in prescribed.items()}
         self.u_bc = np.zeros(n)
@@ -78,19 +161,7 @@ class ElasticJFOFilm(ElasticFilm):
             self.u_bc[dofs] = value
             is_bc[dofs] = True
         self.is_bc = is_bc
-        self.bc_index = np.flatnonzero(is_bc)
-        # the Couette matrix per unit flux: entry (i, j) of cell K is -|K|/3 t.grad(phi_i) (any j)
-        weight, positions = op.weight, op.positions
-        local_couette = -(weight / 3.0)[:, None, None] * np.repeat(op.g_theta[:, :, None], 3, axis=2)
-        nnz = len(op.indices)
-        self.T_C = scipy.sparse.csr_matrix((local_couette.ravel(), (positions.ravel(), np.repeat(op.cells, 9))),
-                                           shape=(nnz, len(op.cells)))
-        self.local_couette = local_couette
-        self.rows = np.repeat(np.arange(n), np.diff(op.indptr))
-        keys = self.rows.astype(np.int64) * n + op.indices
-        self.transpose = np.searchsorted(keys, op.indices.astype(np.int64) * n + self.rows)
-        self.off = self.rows != op.indices
-        self.diagonal = np.flatnonzero(~self.off)
+        self.mid = MidpointJFO(op, coefficients, [W_variable], is_bc)  # values, then d/dW at the midpoints
         self.u = np.ones(n)  # the full film: its first step is the Reynolds solution without cavitation
         self.u[is_bc] = self.u_bc[is_bc]
         self.rate: tuple[float, np.ndarray] | None = None  # (dT, theta_ref) of the film fraction; None: quasi-static
@@ -106,16 +177,6 @@ class ElasticJFOFilm(ElasticFilm):
         self._scale = 1.0
 
     # -- residual --------------------------------------------------------------------------------
-    def _upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(upwinded values, d_ij, pick_self): Kuzmin's edge diffusion d_ij = max(0, C_ij, C_ji), the
-        pair's larger entry picked the same way from both sides (ties: the one in the lower row)."""
-        Ct = C[self.transpose]
-        pick_self = (C > Ct) | ((C == Ct) & (self.rows < self.op.indices))
-        d = np.where(self.off, np.maximum(0.0, np.where(pick_self, C, Ct)), 0.0)
-        values = C - d
-        values[self.diagonal] += np.add.reduceat(d, self.op.indptr[:-1])
-        return values, d, pick_self
-
     def residual(self, x: np.ndarray) -> np.ndarray:
         """R(u, q) (module docstring); caches this state's matrices and coefficients."""
         n, op = self.n, self.op
@@ -125,11 +186,10 @@ class ElasticJFOFilm(ElasticFilm):
         self.P.x.array[:n] = P
         self.W.x.array[:] = self.Phi @ q
         self.k = self.expression.eval(op.cells)  # the asperity pressure and its slope (columns 4, 5)
-        c = self.jfo_expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
+        c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
         self.c = c
         K = scipy.sparse.csr_matrix((op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n))
-        self._C = self.T_C @ c[:, 2]
-        upwinded, self._d, self._pick = self._upwinded(self._C)
+        upwinded, self._d, self._pick = self.mid.upwinded(self.mid.T_C @ c[:, 2])
         T = scipy.sparse.csr_matrix((upwinded, op.indices, op.indptr), shape=(n, n))
         m, mdot = op.T_f @ c[:, 3], op.T_f @ c[:, 4]
         storage_diagonal, history = mdot.copy(), np.zeros(n)
@@ -162,29 +222,12 @@ class ElasticJFOFilm(ElasticFilm):
         op, n, c = self.op, self.n, self.c
         u = self._state[:n]
         positive = u > 0.0
-        plus, theta = np.maximum(u, 0.0), 1.0 + np.minimum(u, 0.0)
         Ts = self._T + scipy.sparse.diags(self._storage)
         J_uu = (self._K @ scipy.sparse.diags(positive.astype(float)) + Ts @ scipy.sparse.diags((~positive).astype(float)))
         keep = scipy.sparse.diags((~self.is_bc).astype(float))
         J_uu = (keep @ J_uu + scipy.sparse.diags(self.is_bc.astype(float))).tocsr()
         # d R_u / d H_K at the vertices of each cell
-        plus_cells, theta_cells = plus[op.dofs], theta[op.dofs]  # (cell, 3)
-        local = (c[:, 5, None] * np.einsum("cij,cj->ci", op.local_theta, plus_cells)
-                 + c[:, 6, None] * np.einsum("cij,cj->ci", op.local_z, plus_cells))
-        dC = c[:, 7, None, None] * self.local_couette  # (cell, i, j): d C^K_ij / d H_K
-        local += np.einsum("cij,cj->ci", dC, theta_cells)
-        positions = op.positions
-        picked = self._pick[positions] & (self._d[positions] > 0.0)  # d_ij follows C_ij ...
-        other = ~self._pick[positions] & (self._d[positions] > 0.0)  # ... or C_ji
-        dd = np.where(picked, dC, 0.0) + np.where(other, np.swapaxes(dC, 1, 2), 0.0)
-        dd[:, np.arange(3), np.arange(3)] = 0.0
-        local -= np.einsum("cij,cij->ci", dd, theta_cells[:, None, :] - theta_cells[:, :, None])
-        third = op.weight / 3.0
-        storage = c[:, 9, None] * theta_cells
-        if self.rate is not None:
-            dT, theta_ref = self.rate
-            storage = storage + c[:, 8, None] * (theta_cells - theta_ref[op.dofs]) / dT
-        local += third[:, None] * storage
+        local = self.mid.local_derivative(c[:, 5:10], self.mid.local_bases(u, (self._d, self._pick), self.rate))
         rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
         dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
         J_uq = keep @ (dH @ self.average_Phi)

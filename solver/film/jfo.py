@@ -64,11 +64,11 @@ Flow factors and shear flow fit in as given by the caller: D a tensor (H^3 phi_x
 Couette flux per unit film fraction any vector (``flux``, default H U; with Patir-Cheng U_mean h_T +
 U_d sigma phi_s along the sliding direction), H the stored gap (the mean gap h_T on rough surfaces).
 
-Sensitivities (``sensitivities``): at a converged solution r(u; c) = 0 on its partition, with c the
-constants in ``variables`` (ufl.variable of fem.Constant), ``du/dc = -J^-1 dr/dc``, where dr/dc at
-fixed u takes the derivatives of K, of the upwinded T (the edge diffusion d_ij follows the entry that
-is its maximum at the solution) and of the storage terms; J is the last Newton Jacobian (the
-solution's partition).
+Sensitivities (``sensitivities``): at a converged solution r(u; c) = 0 on its partition, for any
+parameters c of the coefficients, ``du/dc = -J^-1 dr/dc`` with J the last Newton Jacobian (the
+solution's partition) and dr/dc at fixed u from the caller (the bearing film takes them at the cell
+midpoints, solver.film.ehd_jfo.MidpointJFO: the derivatives of K, of the upwinded T, whose edge
+diffusion follows the entry that is its maximum, and of the storage terms).
 
 What the caller provides: a P1 space, H and U as UFL expressions (D optional), the prescribed dofs by
 name, and per solve the time step and the previous content (or film fraction, rate form). Use the
@@ -84,7 +84,6 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
-import scipy.sparse
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -139,12 +138,11 @@ class JFOSolver:
         options: PETSc options merged over ``DEFAULT_OPTIONS``.
         flux: Couette flux per unit film fraction (UFL vector), default H U.
         rate: dH/dT (UFL scalar): the rate form of the storage (module docstring); None: content form.
-        variables: ufl.variable constants that D, flux, H and rate depend on (for ``sensitivities``).
     """
 
     def __init__(self, V: fem.FunctionSpace, H, U, prescribed: dict[str, tuple[np.ndarray, float]], *,
                  D=None, f=None, quadrature_degree: int | None = None, options: dict | None = None,
-                 flux=None, rate=None, variables=()):
+                 flux=None, rate=None):
         self.V = V
         self.comm = V.mesh.comm
         metadata = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
@@ -174,17 +172,8 @@ class JFOSolver:
         for dofs, value in self.prescribed.values():
             self._bc_values[dofs[dofs < self.n_owned]] = value
         self._bc_global = (self._bc_local + self.u.vector.getOwnershipRange()[0]).astype(PETSc.IntType)
-        # sensitivities: per variable the forms of dD/dc grad(P).grad(v), -w dflux/dc.grad(v), dH/dc v, drate/dc v
-        self._derivative_forms = []
-        for c in variables:
-            derivative = [ufl.inner(ufl.diff(D, c) * ufl.grad(self.pressure), ufl.grad(v)),
-                          -w * ufl.inner(ufl.diff(flux, c), ufl.grad(v)), ufl.diff(H, c) * v,
-                          None if rate is None else ufl.diff(rate, c) * v]
-            self._derivative_forms.append([None if e is None or _is_zero(e) else fem.form(e * dx)
-                                           for e in derivative])
         self.K = fem_petsc.create_matrix(self._K_form)
         self.T = fem_petsc.create_matrix(self._C_form)
-        self._C_raw = None  # the Couette matrix before upwinding (CSR values; sensitivities)
         self.m = fem_petsc.create_vector(self._m_form)
         self.mdot = self.m.duplicate() if rate is not None else None
         self.b = self.m.duplicate()  # -c_old/dT - F
@@ -203,7 +192,6 @@ class JFOSolver:
         self._partition: np.ndarray | None = None  # u > 0 where the last Jacobian was built
         self._scale = 1.0  # the flux scale of the current solve (solve)
         self._Ts: PETSc.Mat | None = None  # T with the storage term of the current solve
-        self._history: tuple[float | None, np.ndarray | None] = (None, None)  # (dT, content or theta_old)
 
     # -- assembly -------------------------------------------------------------------------------
     def update(self) -> None:
@@ -212,7 +200,6 @@ class JFOSolver:
             A.zeroEntries()
             fem_petsc.assemble_matrix(A, form)
             A.assemble()
-        self._C_raw = self.T.getValuesCSR()[2].copy() if self._derivative_forms else None
         _upwind(self.T)
         for vec, form in ((self.m, self._m_form), (self.mdot, self._rate_form)):
             if form is None:
@@ -243,7 +230,6 @@ class JFOSolver:
             T.setDiagonal(storage, addv=PETSc.InsertMode.ADD)
             T.assemble()
             storage.destroy()
-        self._history = (dT, None if old is None else np.asarray(old).copy())
         if self._f_form is not None:
             F = fem_petsc.assemble_vector(self._f_form)
             F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -373,37 +359,6 @@ class JFOSolver:
                            outflow=outflow, iterations=iterations)
 
     # -- sensitivities --------------------------------------------------------------------------
-    def residual_derivatives(self) -> list[np.ndarray]:
-        """dr/dc at the last solution and fixed u, one owned array per ``variables`` entry (zero on
-        the prescribed dofs)."""
-        theta = self.theta.x.array[: self.n_owned]
-        if self.comm.size != 1:
-            raise NotImplementedError("JFO sensitivities: serial only")
-        dT, old = self._history
-        indptr, cols, _ = self.T.getValuesCSR()
-        raw = self._C_raw
-        out = []
-        for dK, dC, dH, drate in self._derivative_forms:
-            d = np.zeros(self.n_owned)
-            if dK is not None:
-                d += _assembled(dK)
-            if dC is not None:
-                A = fem_petsc.assemble_matrix(dC)
-                A.assemble()
-                dvalues = A.getValuesCSR()[2]
-                d += _upwind_derivative(indptr, cols, raw, dvalues) @ theta
-                A.destroy()
-            dm = _assembled(dH) if dH is not None else None
-            if dm is not None and dT is not None:
-                d += dm * theta / dT
-                if self.mdot is not None:
-                    d -= dm * (1.0 if old is None else old) / dT
-            if drate is not None:
-                d += _assembled(drate) * theta
-            d[self._bc_local] = 0.0
-            out.append(d)
-        return out
-
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
         """d(P - P_cav)/dc = -diag(u > 0) J^-1 dr/dc at the last solution, with J its Newton
         Jacobian (built again if the solution's partition is not the last one's)."""
@@ -435,41 +390,6 @@ class JFOSolver:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def _assembled(form) -> np.ndarray:
-    """The owned values of an assembled linear form (ghost contributions added)."""
-    vec = fem_petsc.assemble_vector(form)
-    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    values = vec.getArray(readonly=True).copy()
-    vec.destroy()
-    return values
-
-
-def _is_zero(expression) -> bool:
-    return isinstance(expression, ufl.constantvalue.Zero) or isinstance(
-        ufl.algorithms.expand_derivatives(expression), ufl.constantvalue.Zero)
-
-
-def _upwind_derivative(indptr: np.ndarray, cols: np.ndarray, values: np.ndarray,
-                       dvalues: np.ndarray) -> scipy.sparse.csr_matrix:
-    """The derivative of ``_upwind`` at the Couette matrix ``values`` in the direction ``dvalues``
-    (CSR arrays of one pattern, serial): d_ij = max(0, C_ij, C_ji) follows the entry that is its
-    maximum (none where both are <= 0)."""
-    n = len(indptr) - 1
-    C = scipy.sparse.csr_matrix((values, cols, indptr), shape=(n, n))
-    dC = scipy.sparse.csr_matrix((dvalues, cols, indptr), shape=(n, n))
-    Ct, dCt = C.T.tocsr(), dC.T.tocsr()
-    for M in (Ct, dCt):
-        M.sort_indices()
-    for M in (C, dC):
-        M.sort_indices()
-    rows = np.repeat(np.arange(n), np.diff(C.indptr))
-    off = C.indices != rows
-    a, b = C.data, Ct.data
-    dd = np.where(off & (np.maximum(a, b) > 0), np.where(a >= b, dC.data, dCt.data), 0.0)
-    D = scipy.sparse.csr_matrix((dd, C.indices, C.indptr), shape=(n, n))
-    return (dC - D + scipy.sparse.diags(np.asarray(D.sum(axis=1)).ravel())).tocsr()
 
 
 def _upwind(C: PETSc.Mat) -> None:
