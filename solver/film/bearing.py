@@ -474,6 +474,9 @@ class FilmModel:
                 is_bc[dofs] = True
             self._jfo_derivatives = MidpointJFO(self._operator, self._jfo_coefficients(),
                                                 list(self.geometry.variables().values()), is_bc)
+            layout = self._jfo.csr_layout()
+            if not (np.array_equal(layout[0], self._operator.indptr) and np.array_equal(layout[1], self._operator.indices)):
+                raise RuntimeError("the JFO film's matrices and the operator's have different CSR layouts")
         # nodal areas of the film (integral of each basis function): the cavitated area
         self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
         self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -993,8 +996,8 @@ class FilmModel:
         """The mass-conserving film at the current constants, with the film fraction's rate from the
         committed states (``_film_fraction_rate``; quasi-static without one); P = P_cav + max(u, 0)."""
         jfo, n = self._jfo, len(self._owned_coords)
-        jfo.update()
-        self.solver.update()  # (the Reynolds operator's coefficients carry the Couette torques' integrals)
+        jfo.set_operator(*self._jfo_derivatives.operator())  # the forms' midpoint rule, without dolfinx's assembly
+        self._operator.evaluate()  # (its integrals: the Couette torques)
         dT, theta_old = self._jfo_rate if self._jfo_rate is not None else (None, None)
         # from the last solve; if semismooth Newton cycles from there (a far state of a Newton iteration),
         # from the last committed state, then from the full film (whose first step is the Reynolds

@@ -77,6 +77,7 @@ class MidpointJFO:
         values = list(coefficients)
         derivatives = [ufl.algorithms.expand_derivatives(ufl.diff(e, c)) for c in variables for e in values]
         self.expression = fem.Expression(ufl.as_vector(values + derivatives), MIDPOINT)
+        self.values_expression = fem.Expression(ufl.as_vector(values), MIDPOINT)
         self.local_couette = -(op.weight / 3.0)[:, None, None] * np.repeat(op.g_theta[:, :, None], 3, axis=2)
         self.T_C = scipy.sparse.csr_matrix((self.local_couette.ravel(), (op.positions.ravel(), np.repeat(op.cells, 9))),
                                            shape=(len(op.indices), len(op.cells)))
@@ -85,6 +86,12 @@ class MidpointJFO:
         self.transpose = np.searchsorted(keys, op.indices.astype(np.int64) * n + self.rows)
         self.off = self.rows != op.indices
         self.diagonal = np.flatnonzero(~self.off)
+
+    def operator(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(K's CSR values, the Couette matrix's before upwinding, m, mdot) at the current constants."""
+        op = self.op
+        c = self.values_expression.eval(op.cells)
+        return op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], self.T_C @ c[:, 2], op.T_f @ c[:, 3], op.T_f @ c[:, 4]
 
     def upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(upwinded values, d_ij, pick_self) of the Couette matrix's CSR values C: Kuzmin's edge

@@ -209,6 +209,25 @@ class JFOSolver:
             fem_petsc.assemble_vector(vec, form)
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
+    def set_operator(self, K_values: np.ndarray, C_values: np.ndarray, m: np.ndarray, mdot: np.ndarray | None) -> None:
+        """``update`` from values computed elsewhere (serial): K's and the Couette matrix's values in
+        their CSR layout (``csr_layout``; C before upwinding), m and mdot at the dofs. The bearing film
+        computes them at the cell midpoints (solver.film.ehd_jfo.MidpointJFO), the forms' own rule."""
+        indptr, indices = self.csr_layout()
+        self.K.setValuesCSR(indptr, indices, K_values)
+        self.K.assemble()
+        self.T.setValuesCSR(indptr, indices, C_values)
+        self.T.assemble()
+        _upwind(self.T)
+        self.m.setArray(m)
+        if self.mdot is not None:
+            self.mdot.setArray(mdot)
+
+    def csr_layout(self) -> tuple[np.ndarray, np.ndarray]:
+        """(indptr, indices) of K and T (one pattern: both P1 forms on V)."""
+        indptr, indices, _ = self.K.getValuesCSR()
+        return indptr, indices
+
     def _set_history(self, dT: float | None, old: np.ndarray | None) -> PETSc.Mat:
         """b = -c_old/dT - F (content form) or -m theta_old/dT - F (rate form), and the storage m/dT
         (plus mdot in the rate form) on T's diagonal (returned: T with storage)."""
