@@ -317,9 +317,6 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     if se.elastic != "none" and oil.inlet == "max-gap":
         raise InputError("small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
                          "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
-    if oil.cavitation == "jfo" and oil.inlet == "max-gap":
-        raise InputError("oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
-                         "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
     bearing = Bearing(radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity,
                       cavitation_pressure=oil.cavitation_pressure, inlet="max-gap" if oil.inlet == "max-gap" else "none",
                       **bearing_supply(oil))
