@@ -252,7 +252,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("oil", "cavitation", "cavitation", str, "reynolds", choices=("reynolds", "jfo"),
               doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
                   "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
-                  "cavitation_pressure_bar < 0 the edges are flooded and oil is drawn in there)"),
+                  "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there)"),
     FieldSpec("oil", "inlet", "inlet", str, "none", choices=INLETS,
               doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
                   "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
@@ -478,6 +478,11 @@ class Oil:
 
     def __post_init__(self) -> None:
         _check_section(self, "oil")
+        if self.cavitation == "jfo" and self.inlet == "none" and not self.cavitation_pressure < 0:
+            raise InputError(f"oil.cavitation_pressure_bar = {self.cavitation_pressure / BAR:g} is out of range with "
+                             "oil.cavitation = 'jfo' and oil.inlet = 'none' (allowed: < 0, the edges flooded above "
+                             "the cavitation pressure; or an oil supply: inlet 'hole', 'axial-groove' or "
+                             "'circumferential-groove')")
         if self.cavitation == "jfo" and self.inlet == "max-gap":
             raise InputError("oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
                              "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")

@@ -394,6 +394,12 @@ class FilmModel:
         self.cavitation = cavitation
         if cavitation == "jfo" and (comm.size != 1 or degree != 1):
             raise InputError("cavitation = 'jfo' needs the serial P1 film (allowed: one rank, degree 1)")
+        if cavitation == "jfo" and bearing.inlet == "none" and bearing.supply is None and bearing.cavitation_pressure >= 0:
+            # edges at the cavitation pressure, no supply: no oil can enter the film but along its edges'
+            # first element row, so the oil it holds depends on the mesh (load -16 % from 0.1 to 0.025 R)
+            raise out_of_range("cavitation_pressure", f"{bearing.cavitation_pressure:g}",
+                               "< 0 Pa gauge with cavitation 'jfo', inlet 'none' and no supply (flooded edges), "
+                               "or give a supply hole or groove")
         if elastic is not None:
             if comm.size != 1 or degree != 1:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")

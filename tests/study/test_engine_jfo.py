@@ -137,3 +137,16 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
         t, side, volume = ds.time.values, ds.side_flow.values, ds.oil_volume.values
         closure = (simpson(-side, x=t) - (volume[-1] - volume[0])) / simpson(np.abs(side), x=t)
         assert abs(closure) < 0.03
+
+
+@pytest.mark.serial
+def test_jfo_with_sealed_edges_is_one_line(tmp_path):
+    """inlet none, no supply and the edges at the cavitation pressure (the reference case's 0 bar): one
+    line naming oil.cavitation_pressure_bar and what is allowed, exit 2, nothing written."""
+    case = make_case(tmp_path / "sealed", SOLVER)
+    toml = case / "case.toml"
+    toml.write_text(toml.read_text().replace('cavitation = "reynolds"', 'cavitation = "jfo"', 1))
+    result = run_cli("run", str(case), "--quiet")
+    assert result.returncode == 2
+    assert result.stderr.strip().count("\n") == 0 and "oil.cavitation_pressure_bar = 0 is out of range" in result.stderr
+    assert "Traceback" not in result.stderr and not (case / "results" / "results.nc").exists()
