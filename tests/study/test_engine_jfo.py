@@ -101,15 +101,22 @@ def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, m
 
 
 @pytest.mark.serial
-def test_jfo_with_the_max_gap_inlet_is_one_line(tmp_path):
-    """The max-gap inlet turns the film with the pin, which a film fraction's history cannot follow: the
-    run says so in one line, exit 2, nothing written."""
-    case = _jfo_case(tmp_path / "maxgap")
+@pytest.mark.parametrize("old, new, message", [
+    # the max-gap inlet turns the film with the pin, which a film fraction's history cannot follow
+    ('inlet = "none"', 'inlet = "max-gap"', "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'"),
+    # inlet none, no supply, edges at the cavitation pressure: no oil can enter but along the edges
+    ("cavitation_pressure_bar = -0.9", "cavitation_pressure_bar = 0.0", "oil.cavitation_pressure_bar = 0 is out of range"),
+], ids=["max-gap", "sealed-edges"])
+def test_jfo_refuses_a_case_in_one_line(tmp_path, old, new, message):
+    """What the JFO film cannot take: one line naming the key and what is allowed, exit 2, nothing written."""
+    case = _jfo_case(tmp_path / "refused")
     toml = case / "case.toml"
-    toml.write_text(toml.read_text().replace('inlet = "none"', 'inlet = "max-gap"', 1))
+    text = toml.read_text()
+    assert old in text
+    toml.write_text(text.replace(old, new, 1))
     result = run_cli("run", str(case), "--quiet")
     assert result.returncode == 2
-    assert result.stderr.strip().count("\n") == 0 and "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'" in result.stderr
+    assert result.stderr.strip().count("\n") == 0 and message in result.stderr
     assert "Traceback" not in result.stderr and not (case / "results" / "results.nc").exists()
 
 
@@ -138,15 +145,3 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
         closure = (simpson(-side, x=t) - (volume[-1] - volume[0])) / simpson(np.abs(side), x=t)
         assert abs(closure) < 0.03
 
-
-@pytest.mark.serial
-def test_jfo_with_sealed_edges_is_one_line(tmp_path):
-    """inlet none, no supply and the edges at the cavitation pressure (the reference case's 0 bar): one
-    line naming oil.cavitation_pressure_bar and what is allowed, exit 2, nothing written."""
-    case = make_case(tmp_path / "sealed", SOLVER)
-    toml = case / "case.toml"
-    toml.write_text(toml.read_text().replace('cavitation = "reynolds"', 'cavitation = "jfo"', 1))
-    result = run_cli("run", str(case), "--quiet")
-    assert result.returncode == 2
-    assert result.stderr.strip().count("\n") == 0 and "oil.cavitation_pressure_bar = 0 is out of range" in result.stderr
-    assert "Traceback" not in result.stderr and not (case / "results" / "results.nc").exists()
