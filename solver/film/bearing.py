@@ -515,15 +515,13 @@ class FilmModel:
                 p = self._true_pressure(Q)
                 return p, self.piezo.ratio(p * self.scales.pressure)
         q_limit = None if self.piezo is None else self.piezo.q_limit / self.scales.pressure
-        lower = self.solver.lower.x.array[:n].copy()
         if self._jfo is not None:  # the mass-conserving film on the elastic bushing (solver.film.ehd_jfo)
-            k_theta, k_z, flux, h_T, rate = self._jfo_coefficients()
-            prescribed = {name: (dofs, u) for name, (dofs, u) in self._jfo.prescribed.items()}
             cavitation = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
             ehd = ElasticJFOFilm(self._operator, self.P, self.W, np.full(n, cavitation), derivatives, shapes,
-                                 (k_theta, k_z, flux, h_T, rate), g.W, prescribed, pressure_map=pressure_map,
+                                 self._jfo_coefficients(), g.W, self._jfo.prescribed, pressure_map=pressure_map,
                                  q_limit=q_limit)
         else:
+            lower = self.solver.lower.x.array[:n].copy()
             ehd = ElasticFilm(self._operator, self.P, self.W, lower, derivatives, shapes, options,
                               pressure_map=pressure_map, q_limit=q_limit)
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
@@ -715,13 +713,11 @@ class FilmModel:
         """The film state of the last solve, a copy, for ``commit_deformation``: the coupled unknowns
         (pressure, then the elastic ones) of an elastic bushing, the JFO unknown u (theta = 1 +
         min(u, 0)) of the mass-conserving film; None without history."""
-        if isinstance(self._ehd, ElasticJFOFilm):
-            return np.concatenate([self._ehd.u, self._ehd.q])
+        if self._ehd is not None:
+            return self._ehd.state()
         if self._jfo is not None:
             return self._jfo.u.x.array[: len(self._owned_coords)].copy()
-        if self._ehd is None:
-            return None
-        return np.concatenate([self.P.x.array[: self._ehd.n], self._ehd.q])
+        return None
 
     def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
         """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate
@@ -739,18 +735,10 @@ class FilmModel:
     def start_from(self, state: np.ndarray) -> None:
         """Make ``state`` (from deformation_state) the next solve's warm start: the state one
         integrator step before is a far better start than a solve of another time."""
-        if isinstance(self._ehd, ElasticJFOFilm):
-            self._ehd.u = state[: self._ehd.n].copy()
-            self._ehd.q = state[self._ehd.n :].copy()
-            return
-        if self._jfo is not None:
+        if self._ehd is not None:
+            self._ehd.start_from(state)
+        elif self._jfo is not None:
             self._jfo.u.x.array[: len(state)] = state
-            return
-        if self._ehd is None:
-            return
-        n = self._ehd.n
-        self.P.x.array[:n] = state[:n]
-        self._ehd.q = state[n:].copy()
 
     def deformation_history(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first: (time [s], coupled unknowns), copies (for a
@@ -770,30 +758,39 @@ class FilmModel:
             return []
         return [entry for entry in self._history if entry[0] < time_s][-2:]
 
-    def _set_rate(self, time_s: float | None) -> None:
-        """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``: the
-        variable-step BDF2 derivative through the two committed states before ``time_s`` and the
-        unknown W at ``time_s`` (second order in the step),
-        ``dW/dt = [(1 + 2w)/(1 + w) W - (1 + w) W_n + w^2/(1 + w) W_n-1] / h`` with ``h = t - t_n``,
-        ``w = h / (t_n - t_n-1)``; implicit Euler from the last one when there is only one (or w is
-        above BDF2_MAX_RATIO); quasi-static without any."""
+    def _bdf2(self, time_s: float | None, field) -> tuple[float, np.ndarray] | None:
+        """A field's rate at ``time_s`` as ``inverse_step (f - reference)``, f its unknown value there:
+        the variable-step BDF2 derivative through the two committed states before ``time_s``
+        (second order in the step), ``df/dt = [(1 + 2w)/(1 + w) f - (1 + w) f_n + w^2/(1 + w) f_n-1] / h``
+        with ``h = t - t_n``, ``w = h / (t_n - t_n-1)``; implicit Euler from the last one when there is
+        only one (or w is above BDF2_MAX_RATIO). Returns (inverse_step [1/s], reference), None without
+        a committed state (quasi-static); ``field(state)`` is the field in a committed state. Sets the
+        solve's fall-back start (the last committed state)."""
         history = self.rate_history(time_s)
         self._start = history[-1] if history else None
         if not history:
-            self._inverse_step.value = 0.0
-            return
-        n, Phi = self._ehd.n, self._ehd.Phi
+            return None
         t_n, x_n = history[-1]
         h = time_s - t_n
-        inverse_step, W_reference = 1.0 / h, Phi @ x_n[n:]
+        inverse_step, reference = 1.0 / h, field(x_n)
         if len(history) == 2:
             t_m, x_m = history[0]
             w = h / (t_n - t_m)
             if w <= self.BDF2_MAX_RATIO:
                 inverse_step = (1 + 2 * w) / ((1 + w) * h)
-                W_reference = ((1 + w) * W_reference - w**2 / (1 + w) * (Phi @ x_m[n:])) / (inverse_step * h)
-        self._inverse_step.value = inverse_step / self.scales.omega_ref
-        self._W_previous.x.array[:n] = W_reference
+                reference = ((1 + w) * reference - w**2 / (1 + w) * field(x_m)) / (inverse_step * h)
+        return inverse_step, reference
+
+    def _set_rate(self, time_s: float | None) -> None:
+        """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``, by ``_bdf2``
+        (quasi-static without a committed state)."""
+        n, Phi = self._ehd.n, self._ehd.Phi
+        rate = self._bdf2(time_s, lambda x: Phi @ x[n:])
+        if rate is None:
+            self._inverse_step.value = 0.0
+            return
+        self._inverse_step.value = rate[0] / self.scales.omega_ref
+        self._W_previous.x.array[:n] = rate[1]
 
     def _true_pressure(self, Q: np.ndarray) -> np.ndarray:
         """p / p_ref from the reduced pressure Q / p_ref, node by node (solver.film.viscosity)."""
@@ -977,33 +974,20 @@ class FilmModel:
         return iterations
 
     def _film_fraction_rate(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
-        """The film fraction's rate for a JFO solve at ``time_s``, as ``(theta - theta_ref) / dT``: the
-        variable-step BDF2 derivative through the two committed states before ``time_s`` (as the
-        deformation's, ``_set_rate``), implicit Euler from the last one when there is only one (or the
-        step grew by more than BDF2_MAX_RATIO); None (quasi-static) without any. Returns (dT
-        dimensionless, theta_ref) and sets the solve's fall-back start (the last committed state)."""
-        history = self.rate_history(time_s)
-        self._start = history[-1] if history else None
-        if not history:
-            return None
+        """The film fraction's rate for a JFO solve at ``time_s``, as ``(theta - theta_ref) / dT`` by
+        ``_bdf2``: (dT dimensionless, theta_ref), None (quasi-static) without a committed state."""
         n = len(self._owned_coords)  # (a state is u, or (u, q) with an elastic bushing)
-        t_n, u_n = history[-1][0], history[-1][1][:n]
-        h = time_s - t_n
-        inverse_step, theta_ref = 1.0 / h, 1.0 + np.minimum(u_n, 0.0)
-        if len(history) == 2:
-            t_m, u_m = history[0][0], history[0][1][:n]
-            w = h / (t_n - t_m)
-            if w <= self.BDF2_MAX_RATIO:
-                inverse_step = (1 + 2 * w) / ((1 + w) * h)
-                theta_ref = ((1 + w) * theta_ref - w**2 / (1 + w) * (1.0 + np.minimum(u_m, 0.0))) / (inverse_step * h)
-        return self.scales.omega_ref / inverse_step, theta_ref
+        rate = self._bdf2(time_s, lambda x: 1.0 + np.minimum(x[:n], 0.0))
+        return None if rate is None else (self.scales.omega_ref / rate[0], rate[1])
 
     def _solve_jfo(self) -> int:
         """The mass-conserving film at the current constants, with the film fraction's rate from the
         committed states (``_film_fraction_rate``; quasi-static without one); P = P_cav + max(u, 0)."""
         jfo, n = self._jfo, len(self._owned_coords)
-        jfo.set_operator(*self._jfo_derivatives.operator())  # the forms' midpoint rule, without dolfinx's assembly
-        self._operator.evaluate()  # (its integrals: the Couette torques)
+        # the forms' midpoint rule without dolfinx's assembly; the operator's integrals (the Couette
+        # torques) from the same evaluation
+        matrices, self._operator.integrals = self._jfo_derivatives.operator()
+        jfo.set_operator(*matrices)
         dT, theta_old = self._jfo_rate if self._jfo_rate is not None else (None, None)
         # from the last solve; if semismooth Newton cycles from there (a far state of a Newton iteration),
         # from the last committed state, then from the full film (whose first step is the Reynolds
@@ -1138,26 +1122,24 @@ class FilmModel:
         dr, gradients, w_gradients = vectors[:n_in], vectors[n_in : n_in + n_grad], vectors[n_in + n_grad :]
         for vec in dr:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
-        if self._jfo is not None and self._ehd is None:  # the mass-conserving film's own (solver.film.jfo)
-            dP = []
-            n = len(self._owned_coords)
-            dr_u = self._jfo_derivatives.kinematic_derivatives(self._jfo.u.x.array[:n], self._jfo_rate)
-            for d_k in self._jfo.sensitivities(dr_u):
-                vec = dr[0].duplicate()
-                vec.setArray(d_k)
-                dP.append(vec)
-        elif self._ehd is not None:  # pressure and deformation together (solver.film.ehd)
+        if self._ehd is not None:  # pressure and deformation together (solver.film.ehd, ehd_jfo)
             names = list(self.geometry.variables())
             dr_film = ([v.getArray().copy() for v in dr] if self._jfo is None
                        else self._jfo_derivatives.kinematic_derivatives(self._ehd.u, self._ehd.rate))
             d = self._ehd.sensitivities(self._ehd.residual_derivatives(dr_film, names))
             n = self._ehd.n
-            dP = []
-            for d_k in d:
-                vec = dr[0].duplicate()
-                vec.setArray(d_k[:n])
-                dP.append(vec)
+            dP_arrays = [d_k[:n] for d_k in d]
             dW = [self._ehd.Phi @ d_k[n:] for d_k in d]
+        elif self._jfo is not None:  # the mass-conserving film's own (solver.film.jfo)
+            n = len(self._owned_coords)
+            dr_u = self._jfo_derivatives.kinematic_derivatives(self._jfo.u.x.array[:n], self._jfo_rate)
+            dP_arrays = self._jfo.sensitivities(dr_u)
+        if self._ehd is not None or self._jfo is not None:
+            dP = []
+            for d_k in dP_arrays:
+                vec = dr[0].duplicate()
+                vec.setArray(d_k)
+                dP.append(vec)
         else:
             dP = self.solver.sensitivities(dr)
         if self.piezo is not None:  # of the true pressure: dp = (mu(p) / mu0) dq node by node

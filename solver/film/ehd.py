@@ -337,6 +337,15 @@ class ElasticFilm:
         reason = snes.getConvergedReason()
         return reason if np.all(np.isfinite(self.x.getArray(readonly=True))) else -1
 
+    def state(self) -> np.ndarray:
+        """The unknowns of the last solve, a copy: the film's (the pressure), then the deformation's."""
+        return np.concatenate([self.P.x.array[: self.n], self.q])
+
+    def start_from(self, state: np.ndarray) -> None:
+        """Make ``state`` (from ``state``) the next solve's start."""
+        self.P.x.array[: self.n] = state[: self.n]
+        self.q = state[self.n :].copy()
+
     # -- sensitivities --------------------------------------------------------------------------
     def inactive_set(self) -> PETSc.IS:
         """The pressurised pressure dofs and every deformation unknown, at the last solution (the

@@ -41,7 +41,7 @@ from dolfinx import fem
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import configured_snes
 from solver.film.ehd import ElasticFilm, _DampedLU
-from solver.film.jfo import JFOSolution
+from solver.film.jfo import JFOSolution, semismooth_reason
 from solver.film.tensors import MIDPOINT
 
 log = logging.getLogger(__name__)
@@ -77,7 +77,8 @@ class MidpointJFO:
         values = list(coefficients)
         derivatives = [ufl.algorithms.expand_derivatives(ufl.diff(e, c)) for c in variables for e in values]
         self.expression = fem.Expression(ufl.as_vector(values + derivatives), MIDPOINT)
-        self.values_expression = fem.Expression(ufl.as_vector(values), MIDPOINT)
+        # the coefficients and the operator's midpoint integrals (the Couette torques), evaluated together
+        self.values_expression = fem.Expression(ufl.as_vector(values + op.integrands), MIDPOINT)
         self.local_couette = -(op.weight / 3.0)[:, None, None] * np.repeat(op.g_theta[:, :, None], 3, axis=2)
         self.T_C = scipy.sparse.csr_matrix((self.local_couette.ravel(), (op.positions.ravel(), np.repeat(op.cells, 9))),
                                            shape=(len(op.indices), len(op.cells)))
@@ -87,11 +88,14 @@ class MidpointJFO:
         self.off = self.rows != op.indices
         self.diagonal = np.flatnonzero(~self.off)
 
-    def operator(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(K's CSR values, the Couette matrix's before upwinding, m, mdot) at the current constants."""
+    def operator(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+        """((K's CSR values, the Couette matrix's before upwinding, m, mdot), the operator's integrals)
+        at the current constants (one evaluation at the midpoints; the integrals as
+        MidpointOperator.evaluate gives them)."""
         op = self.op
         c = self.values_expression.eval(op.cells)
-        return op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], self.T_C @ c[:, 2], op.T_f @ c[:, 3], op.T_f @ c[:, 4]
+        matrices = op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], self.T_C @ c[:, 2], op.T_f @ c[:, 3], op.T_f @ c[:, 4]
+        return matrices, op.weight @ c[:, 5:]
 
     def upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(upwinded values, d_ij, pick_self) of the Couette matrix's CSR values C: Kuzmin's edge
@@ -248,18 +252,11 @@ class ElasticJFOFilm(ElasticFilm):
     def _converged(self, snes, iteration: int, norms) -> int:
         """As solver.film.jfo.JFOSolver: a step that kept the partition with the residual at round-off
         (the coupled residual is not piecewise linear in q, so its size is checked too)."""
-        fnorm = norms[2]
-        if not np.isfinite(fnorm):
-            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
-        if fnorm <= 1e-11 * self._scale:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-        if iteration > 0 and self._partition is not None:
+        def kept() -> bool:
             x = snes.getSolution().getArray(readonly=True)
-            if np.array_equal(x[: self.n] > 0.0, self._partition) and fnorm <= 1e-10 * self._scale:
-                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
-        if iteration >= snes.getTolerances()[3]:
-            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
-        return PETSc.SNES.ConvergedReason.ITERATING
+            return np.array_equal(x[: self.n] > 0.0, self._partition) and norms[2] <= 1e-10 * self._scale
+
+        return semismooth_reason(snes, iteration, norms[2], 1e-11 * self._scale, self._partition, kept)
 
     def _limit(self, step: np.ndarray) -> float:
         """ElasticFilm._limit with the pressure's step from u's (P = P_cav + max(u, 0))."""
@@ -293,6 +290,15 @@ class ElasticJFOFilm(ElasticFilm):
             self.residual(x)
         self.u, self.q = x[:n].copy(), x[n:].copy()
         return self.iterations
+
+    def state(self) -> np.ndarray:
+        """The unknowns of the last solve, a copy: the film's (u), then the deformation's."""
+        return np.concatenate([self.u, self.q])
+
+    def start_from(self, state: np.ndarray) -> None:
+        """Make ``state`` (from ``state``) the next solve's start."""
+        self.u = state[: self.n].copy()
+        self.q = state[self.n :].copy()
 
     def solution(self) -> JFOSolution:
         """The film of the last solve as solver.film.jfo reports it (dimensionless, every dof)."""

@@ -162,7 +162,11 @@ class JFOSolver:
         self.u.x.array[:] = 1.0
         self.pressure = fem.Function(V, name="pressure")  # P - P_cav
         self.theta = fem.Function(V, name="theta")
-        self._load_form = fem.form(self.pressure * dx)
+        # each dof's share of the film area, integral(phi_i): the load is their sum with P - P_cav (P1)
+        areas = fem_petsc.assemble_vector(fem.form(v * dx))
+        areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._areas = areas.getArray(readonly=True).copy()
+        areas.destroy()
         self.n_owned = V.dofmap.index_map.size_local
         self.prescribed = {name: (np.asarray(dofs, dtype=np.int32), float(value))
                            for name, (dofs, value) in prescribed.items()}
@@ -296,19 +300,12 @@ class JFOSolver:
         computed with: r is linear on that partition, so the step solved r = 0 exactly (up to the
         LU's round-off, which a residual check against the size of the terms bounds). A warm start
         that already solves the problem (|r| <= 1e-12 of the flux scale) passes at iteration 0."""
-        fnorm = norms[2]
-        if not np.isfinite(fnorm):
-            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
-        if fnorm <= 1e-12 * self._scale:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-        if iteration > 0 and self._partition is not None:
+        def kept() -> bool:
             x = snes.getSolution()
-            kept = bool(np.array_equal(x.getArray(readonly=True) > 0.0, self._partition))
-            if self.comm.allreduce(kept, op=MPI.LAND) and fnorm <= 1e-8 * self._terms(x):
-                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE  # (no reason of its own)
-        if iteration >= snes.getTolerances()[3]:
-            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
-        return PETSc.SNES.ConvergedReason.ITERATING
+            same = bool(np.array_equal(x.getArray(readonly=True) > 0.0, self._partition))
+            return self.comm.allreduce(same, op=MPI.LAND) and norms[2] <= 1e-8 * self._terms(x)
+
+        return semismooth_reason(snes, iteration, norms[2], 1e-12 * self._scale, self._partition, kept)
 
     def _terms(self, x: PETSc.Vec) -> float:
         """|K (P - P_cav)| + |T theta| + |b|: the size of the terms whose sum is the residual."""
@@ -374,7 +371,7 @@ class JFOSolver:
         theta = self.theta.x.array[:n].copy()
         return JFOSolution(pressure=self.pressure.x.array[:n].copy(), theta=theta,
                            content=self.m.getArray(readonly=True) * theta,
-                           load=self.comm.allreduce(fem.assemble_scalar(self._load_form), op=MPI.SUM),
+                           load=self.comm.allreduce(float(self._areas @ self.pressure.x.array[:n]), op=MPI.SUM),
                            outflow=outflow, iterations=iterations)
 
     # -- sensitivities --------------------------------------------------------------------------
@@ -409,6 +406,23 @@ class JFOSolver:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def semismooth_reason(snes: PETSc.SNES, iteration: int, fnorm: float, atol: float, partition, kept) -> int:
+    """The SNES reason of a semismooth Newton iteration on a piecewise-linear residual: converged when
+    |r| <= atol (a warm start that already solves the problem passes at iteration 0), or when the last
+    step kept the partition it was computed with (``partition``: u > 0 where the last Jacobian was
+    built; ``kept()``: that step kept it and left r at round-off); diverged on a non-finite residual
+    or at the iteration limit."""
+    if not np.isfinite(fnorm):
+        return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
+    if fnorm <= atol:
+        return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+    if iteration > 0 and partition is not None and kept():
+        return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE  # (no reason of its own)
+    if iteration >= snes.getTolerances()[3]:
+        return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+    return PETSc.SNES.ConvergedReason.ITERATING
 
 
 def _upwind(C: PETSc.Mat) -> None:

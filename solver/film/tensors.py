@@ -82,7 +82,8 @@ class MidpointOperator:
         n_dofs = V.dofmap.index_map.size_local
         self.T_f = scipy.sparse.csr_matrix((np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))),
                                            shape=(n_dofs, n_cells))
-        self.expression = fem.Expression(ufl.as_vector(list(coefficients) + list(integrals)), MIDPOINT)
+        self.integrands = list(integrals)  # (the mass-conserving film evaluates them with its own coefficients)
+        self.expression = fem.Expression(ufl.as_vector(list(coefficients) + self.integrands), MIDPOINT)
         self.weight = weight  # |K|: the midpoint rule's weight of each cell
         self.nodal_areas = self.T_f @ np.ones(n_cells)  # lumped: a third of each cell's area to its vertices
         # per cell: its dofs, the local matrices per unit coefficient and the basis functions'
