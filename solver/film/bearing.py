@@ -86,7 +86,7 @@ from solver.film.mesh import (
 )
 from solver.film.jfo import JFOSolver
 from solver.film.scaling import FilmScales
-from solver.film.tensors import MidpointOperator
+from solver.film.tensors import MidpointOperator, PressureTorque
 
 log = logging.getLogger(__name__)
 
@@ -133,6 +133,9 @@ STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method 
 DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
 AXIAL_ELEMENTS = 10  # at least this many elements across the half width (bench/bearing_mesh_convergence.py)
 
+
+#: the functionals of the pressure part of the viscous torques (the same integrand, solver.film.tensors.PressureTorque)
+_PRESSURE_TORQUES = ("viscous_pressure_journal", "viscous_pressure_bushing")
 
 #: |e| / c the pin may reach in an elastic bushing (the deformation then holds the film open)
 ELASTIC_MAX_ECCENTRICITY = 2.0
@@ -459,6 +462,7 @@ class FilmModel:
                                        lower=self._reduced(bearing.cavitation_pressure) / self.scales.pressure,
                                        options=options)
         self._operator = None
+        self._pressure_torque = None  # PressureTorque: serial, P1, rigid
         if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
             coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
             names = list(self._midpoint_integrands)
@@ -468,6 +472,10 @@ class FilmModel:
             self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(names)]
             self.solver.assembler = self._operator.assemble
             self.solver.update()
+            if elastic is None:
+                # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
+                self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value))
+                self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(_PRESSURE_TORQUES)]
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         # the mass-conserving film (with an elastic bushing: the kinematic sensitivities of its residual)
@@ -1085,6 +1093,11 @@ class FilmModel:
         raw = {k: vec.dot(self.pressure.vector) for k, vec in self._force_vectors.items()}
         if self._operator is not None:  # integrated with the operator's coefficients, at this state
             raw.update(zip(self._operator_integral_names, self._operator.integrals))
+        if self._pressure_torque is not None:
+            n = self._pressure_torque.B.shape[1]
+            value = self._pressure_torque(self.pressure.x.array[:n], float(self.params.eps_x.value),
+                                          float(self.params.eps_y.value))
+            raw.update(dict.fromkeys(_PRESSURE_TORQUES, value))
         for names, functionals in self._scalars:
             raw.update(zip(names, self._integrate(functionals)))
         values = {k: raw[k] * scale for k, (_, scale, _, _) in self._outputs.items()}

@@ -249,4 +249,8 @@ class PatirCheng:
         """(Phi_f, Phi_fs, Phi_fp); Phi_fs carries the variance ratio like phi_s."""
         return (shear_stress_phi_f(Hs, mod),
                 self.variance_ratio * _interpolated(_shear_stress_fs_tabulated, self.gamma, Hs, mod),
-                _interpolated(_pressure_shear_tabulated, self.gamma, Hs, mod))
+                self.pressure_shear_factor(Hs, mod))
+
+    def pressure_shear_factor(self, Hs, mod=np):
+        """Phi_fp alone (the third of shear_stress_factors)."""
+        return _interpolated(_pressure_shear_tabulated, self.gamma, Hs, mod)

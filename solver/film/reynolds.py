@@ -49,6 +49,7 @@ class Roughness(Protocol):
     def shear_flow(self, Hs: Any, mod: Any = np) -> Any: ...  # phi_s (sign from sigma1^2 - sigma2^2)
     def contact_factor(self, Hs: Any, mod: Any = np) -> Any: ...  # phi_c
     def shear_stress_factors(self, Hs: Any, mod: Any = np) -> tuple[Any, Any, Any]: ...  # Phi_f, Phi_fs, Phi_fp
+    def pressure_shear_factor(self, Hs: Any, mod: Any = np) -> Any: ...  # Phi_fp alone
 
 
 class FilmParameters:

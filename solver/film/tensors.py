@@ -129,3 +129,65 @@ class MidpointOperator:
         values[self.bc_diagonal] = 1.0
         source[self.bc_dofs] = -self.bc_values[self.bc_dofs]
         self.values, self.source = values, source
+
+
+class PressureTorque:
+    """The pressure part of the viscous torques on a rigid film from tensors precomputed once per mesh.
+
+    The integrand (solver.film.reynolds.shear_traction_integrands) is ``-Phi_fp(H/S) 6 H dP/dtheta``,
+    linear in P, integrated by the degree-2 rule of FFCx (3 points per cell; the forms' "moment"
+    measure, which keeps the film's moment balance). With P1 on flat triangles ``dP/dtheta`` at a point
+    is ``(G t(x_q)) . P_K``, so the integral is ``c . (B P)`` with the fixed sparse matrix
+    ``B[(K, q), dof] = w_q |K| (G_K t(x_q))_dof`` and ``c = -6 Phi_fp(H_q/S) H_q`` at the points, where
+    ``H_q = 1 - eps_x cos(theta_q) - eps_y sin(theta_q)`` with cos and sin taken as x/r and y/r at the
+    point, as the form does. The roughness law is evaluated with numpy (``mod=np``: the same
+    expression as the form's); a test checks the result against dolfinx's evaluation of the UFL
+    integrand to 1e-12. Rigid bushing only (an elastic one adds its deformation to H).
+
+    Args:
+        V: the P1 pressure space (serial mesh).
+        roughness: the Patir-Cheng factors (solver.film.flow_factors.PatirCheng), or None (smooth:
+            Phi_fp = 1).
+        S: sigma / c.
+    """
+
+    DEGREE = 2
+
+    def __init__(self, V: fem.FunctionSpace, roughness, S: float):
+        import basix
+
+        mesh = V.mesh
+        if mesh.comm.size != 1 or V.ufl_element().degree() != 1 or mesh.geometry.dofmap.links(0).size != 3:
+            raise ValueError("PressureTorque: P1 on a serial mesh of flat triangles only")
+        points, weights = basix.make_quadrature(basix.CellType.triangle, self.DEGREE)
+        n_cells = mesh.topology.index_map(2).size_local
+        dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
+        X = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]]  # (cell, vertex, xyz)
+        J = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)  # (cell, xyz, 2)
+        JtJ = np.einsum("cki,ckj->cij", J, J)
+        reference_gradients = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+        G = np.einsum("cki,cij,bj->ckb", J, np.linalg.inv(JtJ), reference_gradients)  # (cell, xyz, basis)
+        area = np.sqrt(np.linalg.det(JtJ))  # |det J| (twice the cell's area)
+        # the points in space: x_q = X_0 + J xi_q
+        x = X[:, None, 0, :] + np.einsum("cki,qi->cqk", J, points)  # (cell, q, xyz)
+        r = np.hypot(x[..., 0], x[..., 1])
+        self.cos, self.sin = (x[..., 0] / r).ravel(), (x[..., 1] / r).ravel()
+        tangent = np.stack([-x[..., 1] / r, x[..., 0] / r], axis=-1)  # (cell, q, 2): the z part is 0
+        slopes = np.einsum("cqk,ckb->cqb", tangent, G[:, :2, :])  # (cell, q, basis)
+        values = (weights[None, :, None] * area[:, None, None] * slopes).ravel()
+        n_points = n_cells * len(weights)
+        rows = np.repeat(np.arange(n_points), 3)
+        cols = np.repeat(dofs, len(weights), axis=0).ravel()
+        self.B = scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n_points, V.dofmap.index_map.size_local))
+        self.roughness, self.S = roughness, S
+
+    def coefficient(self, eps_x: float, eps_y: float) -> np.ndarray:
+        """c = -6 Phi_fp(H/S) H at the points."""
+        H = 1.0 - eps_x * self.cos - eps_y * self.sin
+        if self.roughness is None:
+            return -6.0 * H
+        return -6.0 * self.roughness.pressure_shear_factor(H / self.S, mod=np) * H
+
+    def __call__(self, P: np.ndarray, eps_x: float, eps_y: float) -> float:
+        """The integral of ``-Phi_fp 6 H dP/dtheta`` over the mesh for the nodal values P."""
+        return float(self.coefficient(eps_x, eps_y) @ (self.B @ P))

@@ -4,6 +4,10 @@
   against dolfinx's assembly of the same UFL form (with the Dirichlet rows and the lifting), to
   1e-12 of the largest entry: both sum the same products in another order, so they differ by
   round-off (~1e-15) only. Smooth and rough films, with a pressurised supply hole (lifting).
+- ``PressureTorque`` (solver.film.tensors): the pressure part of the viscous torques from a fixed
+  sparse matrix and the roughness law in numpy, against dolfinx's evaluation of the UFL integrand at
+  the same degree-2 points, to 1e-12 relative (the same products summed in another order), for a
+  solved film at several states, smooth and rough.
 - ``FixedPatternLU`` (solver.film.cavitation): the VI with numeric-only refactorisations of the full
   matrix against PETSc's reduced LU: the same number of VI iterations and the same pressure to
   1e-10 (the linear systems are the same, solved with another pivot order), and the sensitivities
@@ -122,3 +126,31 @@ def test_warm_start_turned_with_a_jumping_frame_saves_vi_iterations():
                 loads[turn].append(result.load)
     np.testing.assert_allclose(loads[True], loads[False], rtol=1e-9)
     assert counts[True] < counts[False]
+
+
+@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
+def test_pressure_torque_equals_the_quadrature_of_the_form(rough):
+    """The pressure part of the viscous torque from PressureTorque and from the UFL integrand evaluated by
+    dolfinx (solver.film.bearing.QuadratureFunctionals, the rule the forms use) at three solved states:
+    equal to 1e-12 of its size, and not zero."""
+    from solver.film.bearing import _PRESSURE_TORQUES, QuadratureFunctionals
+    from solver.film.reynolds import shear_traction_integrands
+
+    with _model(rough, False) as model:
+        torque = model._pressure_torque
+        assert torque is not None  # serial, P1, rigid: the default
+        _, _, pressure_part = shear_traction_integrands(model.pressure, model.geometry, model.roughness)
+        reference = QuadratureFunctionals(model.mesh, [pressure_part], torque.DEGREE)
+        for e, angle, rate in [(0.3, 0.5, 0.0), (0.93, 2.0, 0.4), (0.98, 4.5, -1.0)]:
+            state = Kinematics((e * C * math.cos(angle), e * C * math.sin(angle)), (0.0, rate * C * OMEGA), OMEGA, 0.0)
+            model.solve(state)
+            n = torque.B.shape[1]
+            eps = float(model.params.eps_x.value), float(model.params.eps_y.value)
+            fast = torque(model.pressure.x.array[:n], *eps)
+            exact = float(reference()[0])
+            assert abs(exact) > 1e-3
+            assert abs(fast - exact) <= 1e-12 * abs(exact), (e, fast, exact)
+            values = model._functionals()  # the solve's functionals take it
+            whole = model.mesh_spec.multiplicity * model.scales.shear_torque
+            for name in _PRESSURE_TORQUES:
+                assert values[name] == pytest.approx(whole * fast, rel=1e-14)
