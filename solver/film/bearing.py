@@ -86,7 +86,7 @@ from solver.film.mesh import (
 )
 from solver.film.jfo import JFOSolver
 from solver.film.scaling import FilmScales
-from solver.film.tensors import MidpointOperator, PressureTorque
+from solver.film.tensors import MidpointOperator, PressureTorque, RigidMidpointCoefficients
 
 log = logging.getLogger(__name__)
 
@@ -472,6 +472,10 @@ class FilmModel:
             self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(names)]
             self.solver.assembler = self._operator.assemble
             self.solver.update()
+            if elastic is None and set(names) <= set(RigidMidpointCoefficients.INTEGRALS):
+                # the coefficients at the midpoints in numpy rather than by the compiled Expression (film.tensors)
+                self._operator.fast = RigidMidpointCoefficients(self._operator, self.params, self.roughness, names)
+                self.solver.update()
             if elastic is None:
                 # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
                 self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value))

@@ -113,6 +113,22 @@ def _shear_flow_tabulated(gamma: float, Hs: Any, mod: Any) -> Any:
     return _where(_lt(H, 5.0, mod), low, high, mod) if mod is not np else np.where(H <= 5.0, low, high)
 
 
+def _shear_flow_slope_tabulated(gamma: float, Hs: np.ndarray, mod: Any = np) -> np.ndarray:
+    """d Phi_s / d Hs of one tabulated gamma (numpy), as UFL differentiates _shear_flow_tabulated: the
+    clamp max(Hs, H_MIN) passes the slope where Hs > H_MIN, and the fits are differentiated inside
+    their branches."""
+    A1, a1, a2, a3, A2 = SHEAR_FLOW[gamma]
+    Hs = np.atleast_1d(Hs)
+    H = np.maximum(Hs, H_MIN)
+    inside = Hs > H_MIN  # UFL: d max_value(f, g) = conditional(f > g, df, dg)
+    low = H < 5.0
+    slope = np.empty_like(H)
+    Hl = H[low]
+    slope[low] = A1 * Hl**a1 * np.exp(-a2 * Hl + a3 * Hl**2) * (a1 / Hl - a2 + 2.0 * a3 * Hl)
+    slope[~low] = -0.25 * A2 * np.exp(-0.25 * H[~low])
+    return np.where(inside, slope, 0.0)
+
+
 def shear_flow_function(Hs: Any, gamma: float = 1.0, mod: Any = np) -> Any:
     """Phi_s(Hs, gamma) of Patir & Cheng 1979 (the shear flow factor of one rough surface)."""
     return _interpolated(_shear_flow_tabulated, gamma, Hs, mod)
@@ -158,25 +174,40 @@ def shear_stress_phi_f(Hs: Any, mod: Any = np) -> Any:
     ``1 + m2/Hs^2 + m4/Hs^4`` (m2 = 1, m4 = 27/11 are moments of the gap distribution) is used
     instead (truncation < 1e-8 there).
     """
+    if mod is np:
+        return _shear_stress_phi_f_numpy(np.asarray(Hs, dtype=float))
     H = _clamp(Hs, H_MIN, mod)
     series = 1.0 + 1.0 / H**2 + (27.0 / 11.0) / H**4
     z = H / 3.0
-    if mod is np:
-        z_high = np.maximum(z, 1.0 + 1e-12)
-        high = 35 / 32 * z_high * ((1 - z_high**2) ** 3 * np.log((z_high + 1) / (z_high - 1))
-                                   + z_high / 15 * (66 + z_high**2 * (30 * z_high**2 - 80)))
-    else:
-        z_high = mod.max_value(z, 1.0 + 1e-12)
-        high = 35 / 32 * z_high * ((1 - z_high**2) ** 3 * mod.ln((z_high + 1) / (z_high - 1))
-                                   + z_high / 15 * (66 + z_high**2 * (30 * z_high**2 - 80)))
-    z_low = z
-    poly = -55 + z_low * (132 + z_low * (345 + z_low * (-160 + z_low * (-405 + z_low * (60 + 147 * z_low)))))
-    log = np.log if mod is np else mod.ln
-    low = 35 / 32 * z_low * ((1 - z_low**2) ** 3 * log((z_low + 1) / PHI_F_EPSILON) + poly / 60)
-    if mod is np:
-        with np.errstate(all="ignore"):
-            return np.where(H > 30.0, series, np.where(H > 3.0, high, low))
+    z_high = mod.max_value(z, 1.0 + 1e-12)
+    high = 35 / 32 * z_high * ((1 - z_high**2) ** 3 * mod.ln((z_high + 1) / (z_high - 1))
+                               + z_high / 15 * (66 + z_high**2 * (30 * z_high**2 - 80)))
+    poly = -55 + z * (132 + z * (345 + z * (-160 + z * (-405 + z * (60 + 147 * z)))))
+    low = 35 / 32 * z * ((1 - z**2) ** 3 * mod.ln((z + 1) / PHI_F_EPSILON) + poly / 60)
     return mod.conditional(mod.gt(H, 30.0), series, mod.conditional(mod.gt(H, 3.0), high, low))
+
+
+def _shear_stress_phi_f_numpy(Hs: np.ndarray) -> np.ndarray:
+    """shear_stress_phi_f in numpy, each branch evaluated on its own entries only (the same
+    expressions; the film's cells are mostly in the closed form's range and the series')."""
+    shape = np.shape(Hs)
+    H = np.maximum(np.atleast_1d(Hs), H_MIN)
+    out = np.empty_like(H)
+    series, low = H > 30.0, H <= 3.0
+    high = ~(series | low)
+    Hq = H[series]
+    Hq2 = Hq * Hq
+    out[series] = 1.0 + 1.0 / Hq2 + (27.0 / 11.0) / (Hq2 * Hq2)
+    z = np.maximum(H[high] / 3.0, 1.0 + 1e-12)
+    z2 = z * z
+    a = 1 - z2
+    out[high] = 35 / 32 * z * (a * a * a * np.log((z + 1) / (z - 1)) + z / 15 * (66 + z2 * (30 * z2 - 80)))
+    if low.any():
+        z = H[low] / 3.0
+        poly = -55 + z * (132 + z * (345 + z * (-160 + z * (-405 + z * (60 + 147 * z)))))
+        a = 1 - z * z
+        out[low] = 35 / 32 * z * (a * a * a * np.log((z + 1) / PHI_F_EPSILON) + poly / 60)
+    return out.reshape(shape)
 
 
 def _shear_stress_fs_tabulated(gamma: float, Hs: Any, mod: Any) -> Any:
@@ -238,6 +269,10 @@ class PatirCheng:
     def shear_flow(self, Hs, mod=np):
         """phi_s = (sigma1^2 - sigma2^2)/sigma^2 Phi_s(Hs, gamma) (both surfaces of the same gamma)."""
         return self.variance_ratio * shear_flow_function(Hs, self.gamma, mod)
+
+    def shear_flow_slope(self, Hs):
+        """d phi_s / d Hs (numpy), what the forms get from ufl.diff of shear_flow (solver.film.reynolds)."""
+        return self.variance_ratio * _interpolated(_shear_flow_slope_tabulated, self.gamma, np.asarray(Hs, float), np)
 
     def contact_factor(self, Hs, mod=np):
         return contact_factor(Hs, mod)

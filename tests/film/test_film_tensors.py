@@ -1,7 +1,8 @@
 """The film's fast paths give what the UFL forms and PETSc's reduced-space VI give.
 
-- ``MidpointOperator`` (solver.film.tensors): the operator and source from precomputed tensors
-  against dolfinx's assembly of the same UFL form (with the Dirichlet rows and the lifting), to
+- ``MidpointOperator`` (solver.film.tensors): the operator and source from precomputed tensors and
+  the coefficients at the midpoints in numpy (``RigidMidpointCoefficients``) against dolfinx's
+  assembly of the same UFL form (with the Dirichlet rows and the lifting), to
   1e-12 of the largest entry: both sum the same products in another order, so they differ by
   round-off (~1e-15) only. Smooth and rough films, with a pressurised supply hole (lifting).
 - ``PressureTorque`` (solver.film.tensors): the pressure part of the viscous torques from a fixed
@@ -46,12 +47,18 @@ STATE = Kinematics((0.93 * C * math.cos(2.0), 0.93 * C * math.sin(2.0)), (0.2 * 
                    0.2 * OMEGA)
 
 
+DEEP = Kinematics((0.995 * C * math.cos(4.0), 0.995 * C * math.sin(4.0)), (-0.3 * C * OMEGA, 0.1 * C * OMEGA), OMEGA,
+                  -0.5 * OMEGA)
+
+
 @pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
 @pytest.mark.parametrize("hole", [False, True], ids=["edges", "supply-hole"])
-def test_tensors_equal_the_assembly_of_the_form(rough, hole):
+@pytest.mark.parametrize("state", [STATE, DEEP], ids=["eps0.93", "eps0.995"])
+def test_tensors_equal_the_assembly_of_the_form(rough, hole, state):
+    """(eps 0.995: h/sigma down to 0.16, below the flow factors' fits, where they are held)"""
     with _model(rough, hole) as model:
         assert model.solver.assembler is not None  # serial P1: the tensor path is the default
-        model.set_kinematics(STATE)
+        model.set_kinematics(state)
         solver = model.solver
         solver.update()
         A_tensor, l_tensor = solver.A.copy(), solver.rhs.copy()
@@ -90,8 +97,12 @@ def test_fixed_pattern_lu_gives_the_reduced_iterates(rough):
 
 @pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
 def test_couette_torques_integrated_with_the_operator(rough):
-    """The Couette friction integrals taken in the operator's evaluation of the coefficients equal
-    the same integrands integrated by the quadrature functionals (midpoint rule both: 1e-12)."""
+    """The Couette friction integrals taken in the operator's evaluation of the coefficients (numpy,
+    RigidMidpointCoefficients) equal the UFL integrands integrated by dolfinx's quadrature functionals
+    (midpoint rule both). Smooth: 1e-12. Rough: 1e-10, because Patir-Cheng's closed form of Phi_f on
+    3 < h/sigma <= 30 cancels terms of up to ~2e5 (z = 10: (1 - z^2)^3 ln((z + 1)/(z - 1)) against
+    z/15 (66 + ...)) to a result of ~1, so two evaluations in another order of operations differ by
+    ~2e-11 relative (measured 1.9e-12 on the integral)."""
     from solver.film.bearing import QuadratureFunctionals
 
     with _model(rough, False) as model:
@@ -100,7 +111,9 @@ def test_couette_torques_integrated_with_the_operator(rough):
         names = model._operator_integral_names
         assert set(names) == {"viscous_couette_journal", "viscous_couette_bushing"}
         reference = QuadratureFunctionals(model.mesh, [model._midpoint_integrands[n] for n in names], 1)()
-        assert np.abs(model._operator.integrals - reference).max() <= 1e-12 * np.abs(reference).max()
+        assert model._operator.fast is not None  # the numpy evaluation (rigid film, serial P1)
+        tolerance = 1e-10 if rough else 1e-12
+        assert np.abs(model._operator.integrals - reference).max() <= tolerance * np.abs(reference).max()
         assert np.abs(reference).min() > 0
 
 
