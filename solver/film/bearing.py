@@ -452,9 +452,14 @@ class FilmModel:
         self.slip_regularisation = slip_regularisation
         self._build_forms()
         self._owned_cells = np.arange(self.mesh.topology.index_map(2).size_local, dtype=np.int32)
-        x = self.mesh.geometry.x[self.mesh.geometry.dofmap.array.reshape(-1, 3)[: len(self._owned_cells)]]
+        cell_nodes = self.mesh.geometry.dofmap.array.reshape(-1, 3)[: len(self._owned_cells)]
+        x = self.mesh.geometry.x[cell_nodes]
         angle = np.arctan2(x[..., 1], x[..., 0])
         self._vertex_cos, self._vertex_sin = np.cos(angle), np.sin(angle)
+        # the same at the geometry's nodes, and each cell's three nodes (contiguous columns): _contact_cells
+        node_angle = np.arctan2(self.mesh.geometry.x[:, 1], self.mesh.geometry.x[:, 0])
+        self._node_cos, self._node_sin = np.cos(node_angle), np.sin(node_angle)
+        self._cell_nodes = [np.ascontiguousarray(cell_nodes[:, k]) for k in range(3)]
         spread = np.ptp(np.unwrap(angle, axis=1), axis=1)
         self._cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
         self.bcs = self._boundary_conditions()
@@ -934,7 +939,8 @@ class FilmModel:
         if self.contact is not None:
             asperity_normal = values["asperity_normal"] * s.force
             contact_area = values["contact_area"] / (2 * math.pi * self.mesh_spec.width)
-            asperity_p_max = float(self.contact.pressure(np.array([h_min / self.sigma]))[0])
+            if h_min / self.sigma < self.contact.support:  # (p_c = 0 above it: no evaluation)
+                asperity_p_max = float(self.contact.pressure(np.array([h_min / self.sigma]))[0])
         return FilmResult(
             force=(float(hydro[0] + asperity[0]), float(hydro[1] + asperity[1])),
             hydro_force=(float(hydro[0]), float(hydro[1])), asperity_force=(float(asperity[0]), float(asperity[1])),
@@ -1078,11 +1084,13 @@ class FilmModel:
         if self.contact is None:
             return np.zeros(0, dtype=np.int32)
         eps_x, eps_y = float(self.params.eps_x.value), float(self.params.eps_y.value)
-        H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin  # (cells, 3)
-        if self.W is not None:  # the deformation at the vertices (P1: the cells' dofs)
-            H = H + self.W.x.array[self._operator.dofs]
         limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
-        return self._owned_cells[H.min(axis=1) < limit]
+        if self.W is not None:  # the deformation at the vertices (P1: the cells' dofs)
+            H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin + self.W.x.array[self._operator.dofs]
+            return self._owned_cells[H.min(axis=1) < limit]
+        below = 1.0 - eps_x * self._node_cos - eps_y * self._node_sin < limit  # at the nodes
+        a, b, c = self._cell_nodes
+        return self._owned_cells[below[a] | below[b] | below[c]]
 
     def _integrate(self, functionals: QuadratureFunctionals) -> np.ndarray:
         """A group of functionals at the last solved state (contact groups on its contact cells only)."""

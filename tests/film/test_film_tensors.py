@@ -167,3 +167,20 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough):
             whole = model.mesh_spec.multiplicity * model.scales.shear_torque
             for name in _PRESSURE_TORQUES:
                 assert values[name] == pytest.approx(whole * fast, rel=1e-14)
+
+
+@pytest.mark.parametrize("state", [STATE, DEEP], ids=["eps0.93", "eps0.995"])
+def test_contact_integrals_on_the_contact_cells_equal_those_over_the_film(state):
+    """The asperity integrals are taken on the cells FilmModel._contact_cells keeps (h/sigma below the
+    Greenwood-Tripp support at a vertex, widened by the cell's extent); over every cell of the film
+    they are the same to round-off (1e-14: the other cells add exact zeros), and the kept cells are
+    few (the point of keeping them)."""
+    with _model(True, False) as model:
+        model.solve(state)
+        cells = model._contact_cells()
+        assert 0 < len(cells) < 0.5 * len(model._owned_cells)
+        for _, functionals in model._scalars:
+            if functionals.contact_only:
+                kept, everywhere = functionals(cells), functionals(None)
+                assert np.abs(everywhere).max() > 0
+                assert np.abs(kept - everywhere).max() <= 1e-14 * np.abs(everywhere).max()
