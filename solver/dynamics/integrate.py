@@ -359,6 +359,8 @@ class ESDIRK32:
         # MAX_NEWTON_ITERATIONS in all, plus as many again for refreshes of a kept Jacobian
         for _ in range(self.MAX_NEWTON_ITERATIONS * (2 if reuse else 1)):
             if refresh:
+                if self._constraint_part is None:  # once per step, at the first refresh it needs
+                    self._constraint_part = self.system.constraint_derivative(*self._step_anchor)
                 f, self.jacobian, _ = self.system.rhs_and_jacobian(t, Y, self._constraint_part)
                 lu = None
             else:
@@ -403,7 +405,9 @@ class ESDIRK32:
         h = min(self.h, self.max_step, self.t_bound - t)
         # the constraint part of the Jacobian, differenced once per step at the latest consistent force
         # evaluation (the last Newton iterate of the previous step, within the Newton tolerance of y)
-        self._constraint_part = self.system.constraint_derivative(*self._anchor)
+        # (differenced only when this step refreshes its Jacobian: a step that keeps the last one does not
+        # need it, and it costs 4 n constraint evaluations)
+        self._constraint_part, self._step_anchor = None, self._anchor
         rejected = False
         while True:
             if not h >= 10.0 * np.abs(np.nextafter(t, np.inf) - t):  # also catches NaN
