@@ -475,12 +475,11 @@ class FilmModel:
                                               integrals=[self._midpoint_integrands[n] for n in names])
             self._operator_integral_names = names
             self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(names)]
-            self.solver.assembler = self._operator.assemble
-            self.solver.update()
             if elastic is None and set(names) <= set(RigidMidpointCoefficients.INTEGRALS):
                 # the coefficients at the midpoints in numpy rather than by the compiled Expression (film.tensors)
                 self._operator.fast = RigidMidpointCoefficients(self._operator, self.params, self.roughness, names)
-                self.solver.update()
+            self.solver.assembler = self._operator.assemble
+            self.solver.update()
             if elastic is None:
                 # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
                 self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value))

@@ -387,8 +387,9 @@ class CavitatingSolver:
 
     # -- lifetime -------------------------------------------------------------------------------
     def close(self) -> None:
-        for obj in (self.snes, self.A, self.rhs, self.residual_vec, *([self._shell] if self._shell is not None else [])):
-            obj.destroy()
+        for obj in (self.snes, self.A, self.rhs, self.residual_vec, self._shell):
+            if obj is not None:
+                obj.destroy()
         if self.lu is not None:
             self.lu.destroy()
         self._sens_ksp = None

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from petsc4py import PETSc
 
+import basix
 import numpy as np
 import scipy.sparse
 import ufl
@@ -28,6 +29,25 @@ from dolfinx import fem
 
 #: the midpoint of the reference triangle: the one point of the degree-1 rule (weight 1/2)
 MIDPOINT = np.array([[1.0 / 3.0, 1.0 / 3.0]])
+
+
+def _cell_geometry(V: fem.FunctionSpace, who: str):
+    """Per owned cell of a serial P1 mesh of flat triangles: (dofs (cell, 3), vertices X (cell, vertex,
+    xyz), Jacobian J (cell, xyz, 2), basis gradients G (cell, xyz, basis) by the pseudo-inverse of the
+    manifold's Jacobian, |det J|)."""
+    mesh = V.mesh
+    if mesh.comm.size != 1 or V.ufl_element().degree() != 1:
+        raise ValueError(f"{who}: P1 on a serial mesh only")
+    if mesh.geometry.dofmap.links(0).size != 3:
+        raise ValueError(f"{who}: flat (affine) triangles only")
+    n_cells = mesh.topology.index_map(2).size_local
+    dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
+    X = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]]
+    J = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)
+    JtJ = np.einsum("cki,ckj->cij", J, J)
+    reference_gradients = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])  # (basis, 2)
+    G = np.einsum("cki,cij,bj->ckb", J, np.linalg.inv(JtJ), reference_gradients)
+    return dofs, X, J, G, np.sqrt(np.linalg.det(JtJ))
 
 
 class MidpointOperator:
@@ -43,21 +63,10 @@ class MidpointOperator:
     """
 
     def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list, integrals=()):
-        mesh = V.mesh
-        if mesh.comm.size != 1 or V.ufl_element().degree() != 1:
-            raise ValueError("MidpointOperator: P1 on a serial mesh only")
-        if mesh.geometry.dofmap.links(0).size != 3:
-            raise ValueError("MidpointOperator: flat (affine) triangles only")
-        n_cells = mesh.topology.index_map(2).size_local
+        dofs, X, J, G, det = _cell_geometry(V, "MidpointOperator")
+        n_cells = len(dofs)
         cells = np.arange(n_cells, dtype=np.int32)
-        dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
-        X = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]]  # (cell, vertex, xyz)
-        J = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)  # (cell, xyz, 2)
-        JtJ = np.einsum("cki,ckj->cij", J, J)
-        reference_gradients = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])  # (basis, 2)
-        # physical gradients of the basis (pseudo-inverse of the manifold's Jacobian): (cell, xyz, basis)
-        G = np.einsum("cki,cij,bj->ckb", J, np.linalg.inv(JtJ), reference_gradients)
-        weight = 0.5 * np.sqrt(np.linalg.det(JtJ))  # |K|: reference weight 1/2 x |det J|
+        weight = 0.5 * det  # |K|: reference weight 1/2 x |det J|
         centroid = X.mean(axis=1)
         self.centroid = centroid
         r = np.hypot(centroid[:, 0], centroid[:, 1])
@@ -158,20 +167,9 @@ class PressureTorque:
     DEGREE = 2
 
     def __init__(self, V: fem.FunctionSpace, roughness, S: float):
-        import basix
-
-        mesh = V.mesh
-        if mesh.comm.size != 1 or V.ufl_element().degree() != 1 or mesh.geometry.dofmap.links(0).size != 3:
-            raise ValueError("PressureTorque: P1 on a serial mesh of flat triangles only")
         points, weights = basix.make_quadrature(basix.CellType.triangle, self.DEGREE)
-        n_cells = mesh.topology.index_map(2).size_local
-        dofs = V.dofmap.list.array.reshape(-1, 3)[:n_cells]
-        X = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]]  # (cell, vertex, xyz)
-        J = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)  # (cell, xyz, 2)
-        JtJ = np.einsum("cki,ckj->cij", J, J)
-        reference_gradients = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
-        G = np.einsum("cki,cij,bj->ckb", J, np.linalg.inv(JtJ), reference_gradients)  # (cell, xyz, basis)
-        area = np.sqrt(np.linalg.det(JtJ))  # |det J| (twice the cell's area)
+        dofs, X, J, G, area = _cell_geometry(V, "PressureTorque")
+        n_cells = len(dofs)
         # the points in space: x_q = X_0 + J xi_q
         x = X[:, None, 0, :] + np.einsum("cki,qi->cqk", J, points)  # (cell, q, xyz)
         r = np.hypot(x[..., 0], x[..., 1])
