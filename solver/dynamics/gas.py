@@ -255,6 +255,21 @@ class SingleZoneModel:
         c0 = self.intake_pressure * V(math.pi) ** n
         return (c0 + (n - 1.0) * self.heat_release * self._heat_integral(theta)) / V(theta) ** n
 
+    def _closed_scalar(self, theta: float) -> float:
+        """``_closed`` of one angle in [0, 4 pi) without arrays: the same operations in the same order
+        (the same value to round-off: numpy's scalar and array kernels may differ in the last bit), in a
+        tenth of the time (one call per force evaluation of the mechanism)."""
+        n, V = self.polytropic_exponent, self.geometry.volume
+        start, end = self.combustion_start, self.combustion_start + self.combustion_duration
+        if theta <= start:
+            heat = 0.0
+        elif theta >= end:
+            heat = self._heat_integral_end
+        else:
+            heat = float(self._heat_table(theta))
+        c0 = self.intake_pressure * V(math.pi) ** n
+        return (c0 + (n - 1.0) * self.heat_release * heat) / V(theta) ** n
+
     def _closed_derivative(self, theta) -> np.ndarray:
         n, V = self.polytropic_exponent, self.geometry.volume(theta)
         return (n - 1.0) * self.heat_release * self._heat_integrand(theta) / V**n - n * self._closed(theta) * (
@@ -275,6 +290,8 @@ class SingleZoneModel:
                 return np.float64(self.intake_pressure)
             if self.exhaust_opening + self.blowdown_duration <= t < CYCLE - half:
                 return np.float64(self.exhaust_pressure)
+            if math.pi <= t < self.exhaust_opening:  # closed: eq. (3) with the same operations on a float
+                return np.float64(self._closed_scalar(t))
         scalar = np.ndim(theta) == 0
         theta = np.mod(np.atleast_1d(np.asarray(theta, dtype=float)), CYCLE)
         p_in, p_ex = self.intake_pressure, self.exhaust_pressure

@@ -220,3 +220,21 @@ def test_smooth_gas_exchange_imep_is_the_closed_integral_of_p_dV(imep):
     theta = np.linspace(0.0, 720.0, 200001)
     V, swept = volume(theta)
     assert simpson(model.pressure(np.radians(theta)), x=V) / swept == pytest.approx(imep, rel=1e-6)
+
+
+@pytest.mark.parametrize("smooth", [False, True], ids=["step", "blowdown-overlap"])
+def test_scalar_pressure_equals_the_array_pressure(smooth):
+    """The mechanism asks for the pressure one angle at a time (scalar paths: the constant phases and the
+    closed cylinder); the array evaluation is the reference: equal to 4e-16 relative (the same
+    operations; numpy's scalar and array kernels may round the last bit differently), over two cycles
+    and at the phase boundaries (intake closing at 180 deg, the combustion's start and end, the
+    exhaust opening, the blowdown's end, the overlap)."""
+    model = single_zone_model(geometry(), peak_pressure=60e5, **(SMOOTH if smooth else {}))
+    edges = [math.pi, model.combustion_start, model.combustion_start + model.combustion_duration,
+             model.exhaust_opening, model.exhaust_opening + model.blowdown_duration, 4 * math.pi - 0.2, 0.2]
+    theta = np.concatenate([np.linspace(-0.5, 8 * math.pi, 7001), edges, np.nextafter(edges, 0.0),
+                            np.nextafter(edges, 10.0)])
+    array = model.pressure(theta)
+    scalar = np.array([model.pressure(float(t)) for t in theta])
+    assert np.max(np.abs(scalar - array) / array) <= 4e-16
+    assert np.ptp(array) > 50e5  # (the whole cycle: intake to the peak)
