@@ -289,3 +289,47 @@ def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye, film_di
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
+
+
+@pytest.mark.serial
+def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
+    """SchurLU (the coupled VI's reduced systems by the Schur complement of the film block, for a few
+    modes) against an LU of the whole coupled matrix (MUMPS, the method before it): from a cold start at
+    the mixed state (rough, contact: the pin in asperity contact; on this coarse film half of the film
+    block's factorisations meet a zero pivot of PETSc's LU, and SchurLU takes MUMPS for those) and along
+    warm starts, the same
+    Newton iterations, the same pressure and deformation to 1e-9 of their largest values (the same
+    linear systems, solved in another order), and the same Jacobian to 1e-8 of each row's largest entry
+    (the sensitivities reuse the factorisation)."""
+    from solver.film.ehd import ModalCompliance, SchurLU
+
+    packages = []
+    factor_film_block = SchurLU._factor_film_block
+
+    def recorded(self):
+        factor_film_block(self)
+        packages.append(self._package)
+
+    monkeypatch.setattr(SchurLU, "_factor_film_block", recorded)
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    states = [MIXED] + [Kinematics(tuple(np.array(MIXED.ecc) * f), MIXED.ecc_rate, MIXED.omega_journal,
+                                   MIXED.omega_bushing) for f in (0.99, 0.97, 1.005)]
+    runs = []
+    for whole in (False, True):
+        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=ModalCompliance(coarse_eye, 24),
+                       **_rough()) as model:
+            assert isinstance(model._ehd.lu, SchurLU)
+            if whole:
+                model._ehd.use_whole_lu()
+            out = []
+            for state in states:
+                result = model.solve(state)
+                out.append((result.iterations, model._ehd.state(), model.jacobian().matrix))
+            runs.append(out)
+    assert "mumps" in packages and "petsc" in packages  # (both factorisations of the film block were taken)
+    for (its, x, J), (its_ref, x_ref, J_ref) in zip(*runs):
+        n = len(x) - 24
+        assert its == its_ref
+        assert np.abs(x[:n] - x_ref[:n]).max() <= 1e-9 * np.abs(x_ref[:n]).max()
+        assert np.abs(x[n:] - x_ref[n:]).max() <= 1e-9 * np.abs(x_ref[n:]).max()
+        assert np.all(np.abs(J - J_ref) <= 1e-8 * np.abs(J_ref).max(axis=1, keepdims=True))
