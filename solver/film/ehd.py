@@ -57,7 +57,7 @@ import ufl
 from dolfinx import fem
 
 from solver.errors import FilmNotConverged, out_of_range
-from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, configured_snes
+from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, _ReducedShell, configured_snes
 from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads, winkler_coefficient
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MIDPOINT, MidpointOperator
@@ -156,11 +156,17 @@ class ElasticFilm:
         slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
         self.average_Phi = (average @ self.Phi).tocsr()  # dW_K/dq
         self.slope_Phi = (slope @ self.Phi).tocsr()  # dW'_K/dq
+        # with a few modes the shapes are dense: their products with the cells' sparse matrices as dense
+        # arrays (a sparse-sparse product with a dense result costs ~10 x more)
+        self.dense = m < n
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
         self.interior = np.ones(n)
         self.interior[op.bc_dofs] = 0.0
         self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
         self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
+        if self.dense:
+            self._average_Phi, self._slope_Phi = self.average_Phi.toarray(), self.slope_Phi.toarray()
+            self._gPhiT, self._J_qP = self.gPhiT.toarray(), self.J_qP.toarray()
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
@@ -191,6 +197,11 @@ class ElasticFilm:
         self.blocks = None
         self.lu = SchurLU(self) if m < n else self._whole_lu()
         self.lu.limit = self._limit
+        self._shell = None
+        if isinstance(self.lu, SchurLU):  # the reduced-space SNES then needs the blocks only
+            self._shell = PETSc.Mat().createPython(((self.N, self.N), (self.N, self.N)), _ReducedShell(), comm=self.comm)
+            self._shell.setUp()
+            self.snes.setJacobian(self._blocks_only, self._shell)
         self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
         for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
             pc = snes.getKSP().getPC()
@@ -215,6 +226,7 @@ class ElasticFilm:
         self.lu = self._whole_lu()
         self.lu.limit = self._limit
         self.snes.getKSP().getPC().setPythonContext(self.lu)
+        self.snes.setJacobian(self._jacobian, self.A)
 
     def _snes(self, options: dict) -> PETSc.SNES:
         snes = configured_snes(self.comm, "ehd", options)
@@ -250,12 +262,16 @@ class ElasticFilm:
         xa = x.getArray(readonly=True)
         if self._state is None or not np.array_equal(xa, self._state):
             self.residual(xa)
-        J.setValuesCSR(self.indptr, self.indices, self._scatter(self.jacobian_matrix("coo")))
+        self.blocks = self.jacobian_blocks()
+        A, J_Pq, J_qP, J_qq = self.blocks
+        if self.dense:
+            J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_Pq, J_qP, J_qq))
+        J.setValuesCSR(self.indptr, self.indices, self._scatter(scipy.sparse.bmat([[A, J_Pq], [J_qP, J_qq]], format="coo")))
         J.assemble()
 
-    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
-        """The coupled Jacobian at the cached state (scipy, in ``format``: ``coo`` for the scatter,
-        unsorted and with duplicates, which ``_scatter`` sums; ``csr`` for tests)."""
+    def jacobian_blocks(self) -> tuple:
+        """(dR_P/dP, dR_P/dq, dR_q/dP, dR_q/dq) at the cached state: scipy matrices, and with a few modes
+        the last three dense arrays."""
         op, k, n = self.op, self.k, self.n
         P = self.P.x.array[:n].copy()
         P[op.bc_dofs] = op.bc_values[op.bc_dofs]  # the residual's lifting uses the Dirichlet values
@@ -267,12 +283,32 @@ class ElasticFilm:
         rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
         dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
         dslope = scipy.sparse.csr_matrix((np.repeat(k[:, 3] * op.weight / 3.0, 3), (rows, cols)), shape=(n, n_cells))
-        J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)
-        contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
-        J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
-        J_qP = self.J_qP if self.slope is None else self.J_qP @ scipy.sparse.diags(self.slope)
-        self.blocks = (self._A, J_Pq, J_qP, J_qq)  # (the Schur complement's factorisation reads them)
-        return scipy.sparse.bmat([[self._A, J_Pq], [J_qP, J_qq]], format=format)
+        if self.dense:  # the same blocks as dense arrays (module docstring)
+            J_Pq = self.interior[:, None] * (dH @ self._average_Phi + dslope @ self._slope_Phi)
+            J_qq = np.identity(self.m) - self._gPhiT @ (self.to_nodes @ (k[:, 5, None] * self._average_Phi))
+            J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
+        else:
+            J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)
+            contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
+            J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
+            J_qP = self.J_qP if self.slope is None else self.J_qP @ scipy.sparse.diags(self.slope)
+        return self._A, J_Pq, J_qP, J_qq
+
+    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
+        """The coupled Jacobian at the cached state (scipy, in ``format``: ``coo`` for the scatter,
+        unsorted and with duplicates, which ``_scatter`` sums; ``csr`` for tests)."""
+        A, J_Pq, J_qP, J_qq = self.jacobian_blocks()
+        if self.dense:
+            J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_Pq, J_qP, J_qq))
+        return scipy.sparse.bmat([[A, J_Pq], [J_qP, J_qq]], format=format)
+
+    def _blocks_only(self, snes, x, J, Pmat) -> None:
+        """The reduced-space SNES's Jacobian callback with SchurLU: the blocks, no coupled matrix (SchurLU
+        reads the blocks; ``preonly`` never applies the operator, a shell)."""
+        xa = x.getArray(readonly=True)
+        if self._state is None or not np.array_equal(xa, self._state):
+            self.residual(xa)
+        self.blocks = self.jacobian_blocks()
 
     def _scatter(self, J: scipy.sparse.coo_matrix) -> np.ndarray:
         """J's values in the fixed pattern (duplicates summed; zeros where J has no entry). The blocks'
@@ -391,7 +427,10 @@ class ElasticFilm:
         leaves its own modified matrix in A)."""
         if self.lu.inactive is None:
             inactive = self.inactive_set()
-            self._jacobian(None, self.x, self.A, self.A)
+            if isinstance(self.lu, SchurLU):
+                self._blocks_only(None, self.x, None, None)
+            else:
+                self._jacobian(None, self.x, self.A, self.A)
             self.lu.factor(inactive)
         out = []
         keep = self.lu.local
@@ -406,8 +445,9 @@ class ElasticFilm:
     def close(self) -> None:
         self.lu.destroy()
         self.damped.destroy()
-        for obj in (self.snes, self.far, self.A, self.x, self.r, self.lower_vec, self.upper_vec):
-            obj.destroy()
+        for obj in (self.snes, self.far, self.A, self.x, self.r, self.lower_vec, self.upper_vec, self._shell):
+            if obj is not None:
+                obj.destroy()
 
 
 def deformation_peak(W: np.ndarray, coords: np.ndarray, clearance: float) -> tuple[float, float]:
@@ -465,9 +505,9 @@ class SchurLU:
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
         self._factor_film_block()
-        B = B.toarray()
+        B = B.toarray() if scipy.sparse.issparse(B) else B.copy()
         B[active] = 0.0
-        self.C = C.toarray()
+        self.C = C.toarray() if scipy.sparse.issparse(C) else C.copy()
         self.C[:, active] = 0.0
         rhs = PETSc.Mat().createDense((n, film.m), array=np.asfortranarray(B), comm=film.comm)
         X = PETSc.Mat().createDense((n, film.m), comm=film.comm)
