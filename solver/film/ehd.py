@@ -167,6 +167,7 @@ class ElasticFilm:
         if self.dense:
             self._average_Phi, self._slope_Phi = self.average_Phi.toarray(), self.slope_Phi.toarray()
             self._gPhiT, self._J_qP = self.gPhiT.toarray(), self.J_qP.toarray()
+            self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
@@ -285,7 +286,8 @@ class ElasticFilm:
         dslope = scipy.sparse.csr_matrix((np.repeat(k[:, 3] * op.weight / 3.0, 3), (rows, cols)), shape=(n, n_cells))
         if self.dense:  # the same blocks as dense arrays (module docstring)
             J_Pq = self.interior[:, None] * (dH @ self._average_Phi + dslope @ self._slope_Phi)
-            J_qq = np.identity(self.m) - self._gPhiT @ (self.to_nodes @ (k[:, 5, None] * self._average_Phi))
+            touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
+            J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (k[touching, 5, None] * self._average_Phi[touching])
             J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
         else:
             J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)

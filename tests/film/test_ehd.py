@@ -326,6 +326,15 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
                 result = model.solve(state)
                 out.append((result.iterations, model._ehd.state(), model.jacobian().matrix))
             runs.append(out)
+            if not whole:  # the modal blocks as dense arrays against the sparse products (1e-12), at the
+                film = model._ehd  # solution's pressure with the deformation removed: the rigid gap, in contact
+                film.residual(np.concatenate([film.state()[: film.n], np.zeros(film.m)]))
+                dense = film.jacobian_matrix().toarray()
+                film.dense = False
+                sparse = film.jacobian_matrix().toarray()
+                film.dense = True
+                assert np.abs(dense - sparse).max() <= 1e-12 * np.abs(sparse).max()
+                assert np.count_nonzero(sparse[film.n:, film.n:] - np.identity(film.m)) > 0  # (contact in J_qq)
     assert "mumps" in packages and "petsc" in packages  # (both factorisations of the film block were taken)
     for (its, x, J), (its_ref, x_ref, J_ref) in zip(*runs):
         n = len(x) - 24
