@@ -32,9 +32,11 @@ with its exact Jacobian::
 where the coefficients and their derivatives (``ufl.diff`` with respect to W and W') come from the
 same UFL expressions as the rigid film, evaluated at the cell midpoints: the operator's rule
 (solver.film.tensors). A relaxed fixed-point loop between film and structure converges badly at
-engine loads (DESIGN 7); Newton on the coupled system does not. The matrix keeps one sparsity
-pattern (with dense borders for the modes), so ``FixedPatternLU`` refactorises it numerically only,
-and the film's Jacobian with respect to the kinematics reuses the converged factorisation.
+engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
+systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
+block's fixed pattern, m back-substitutions, a dense m x m LU); node by node (Winkler) the matrix
+keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS). Either way
+the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
 Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
 coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above include it.
