@@ -249,17 +249,17 @@ class SingleZoneModel:
             theta, self.combustion_start, self.combustion_duration, self.wiebe_a, self.wiebe_m
         )
 
-    def _closed(self, theta) -> np.ndarray:
-        """p of eq. (3) (closed cylinder), also continued into the blowdown."""
+    def _closed(self, theta, heat=None) -> np.ndarray:
+        """p of eq. (3) (closed cylinder), also continued into the blowdown; ``heat``: I(theta) if known."""
         n, V = self.polytropic_exponent, self.geometry.volume
         c0 = self.intake_pressure * V(math.pi) ** n
-        return (c0 + (n - 1.0) * self.heat_release * self._heat_integral(theta)) / V(theta) ** n
+        heat = self._heat_integral(theta) if heat is None else heat
+        return (c0 + (n - 1.0) * self.heat_release * heat) / V(theta) ** n
 
     def _closed_scalar(self, theta: float) -> float:
-        """``_closed`` of one angle in [0, 4 pi) without arrays: the same operations in the same order
-        (the same value to round-off: numpy's scalar and array kernels may differ in the last bit), in a
-        tenth of the time (one call per force evaluation of the mechanism)."""
-        n, V = self.polytropic_exponent, self.geometry.volume
+        """``_closed`` of one angle in [0, 4 pi) with I(theta) taken without arrays (the same value to
+        round-off: numpy's scalar and array kernels may differ in the last bit), in a tenth of the time
+        (one call per force evaluation of the mechanism)."""
         start, end = self.combustion_start, self.combustion_start + self.combustion_duration
         if theta <= start:
             heat = 0.0
@@ -267,8 +267,7 @@ class SingleZoneModel:
             heat = self._heat_integral_end
         else:
             heat = float(self._heat_table(theta))
-        c0 = self.intake_pressure * V(math.pi) ** n
-        return (c0 + (n - 1.0) * self.heat_release * heat) / V(theta) ** n
+        return self._closed(theta, heat)
 
     def _closed_derivative(self, theta) -> np.ndarray:
         n, V = self.polytropic_exponent, self.geometry.volume(theta)

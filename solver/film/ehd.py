@@ -168,7 +168,7 @@ class ElasticFilm:
         self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
         if self.dense:
             self._average_Phi, self._slope_Phi = self.average_Phi.toarray(), self.slope_Phi.toarray()
-            self._gPhiT, self._J_qP = self.gPhiT.toarray(), self.J_qP.toarray()
+            self._J_qP = self.J_qP.toarray()
             self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
@@ -261,15 +261,14 @@ class ElasticFilm:
     def _residual(self, snes, x, r) -> None:
         r.setArray(self.residual(x.getArray(readonly=True)))
 
-    def _jacobian(self, snes, x, J, Pmat) -> None:
+    def _evaluate_at(self, x: PETSc.Vec) -> None:
         xa = x.getArray(readonly=True)
         if self._state is None or not np.array_equal(xa, self._state):
             self.residual(xa)
-        self.blocks = self.jacobian_blocks()
-        A, J_Pq, J_qP, J_qq = self.blocks
-        if self.dense:
-            J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_Pq, J_qP, J_qq))
-        J.setValuesCSR(self.indptr, self.indices, self._scatter(scipy.sparse.bmat([[A, J_Pq], [J_qP, J_qq]], format="coo")))
+
+    def _jacobian(self, snes, x, J, Pmat) -> None:
+        self._evaluate_at(x)
+        J.setValuesCSR(self.indptr, self.indices, self._scatter(self.jacobian_matrix("coo")))
         J.assemble()
 
     def jacobian_blocks(self) -> tuple:
@@ -301,7 +300,7 @@ class ElasticFilm:
     def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
         """The coupled Jacobian at the cached state (scipy, in ``format``: ``coo`` for the scatter,
         unsorted and with duplicates, which ``_scatter`` sums; ``csr`` for tests)."""
-        A, J_Pq, J_qP, J_qq = self.jacobian_blocks()
+        self.blocks = A, J_Pq, J_qP, J_qq = self.jacobian_blocks()
         if self.dense:
             J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_Pq, J_qP, J_qq))
         return scipy.sparse.bmat([[A, J_Pq], [J_qP, J_qq]], format=format)
@@ -309,9 +308,7 @@ class ElasticFilm:
     def _blocks_only(self, snes, x, J, Pmat) -> None:
         """The reduced-space SNES's Jacobian callback with SchurLU: the blocks, no coupled matrix (SchurLU
         reads the blocks; ``preonly`` never applies the operator, a shell)."""
-        xa = x.getArray(readonly=True)
-        if self._state is None or not np.array_equal(xa, self._state):
-            self.residual(xa)
+        self._evaluate_at(x)
         self.blocks = self.jacobian_blocks()
 
     def _scatter(self, J: scipy.sparse.coo_matrix) -> np.ndarray:
@@ -484,8 +481,10 @@ class SchurLU:
     def __init__(self, film: ElasticFilm):
         self.film = weakref.proxy(film)  # (owned by the film's SNES: no reference cycle through C)
         op, n = film.op, film.n
-        self.K = PETSc.Mat().createAIJ((n, n), csr=(op.indptr.astype(PETSc.IntType), op.indices.astype(PETSc.IntType),
-                                                    np.zeros(len(op.indices))), comm=film.comm)
+        # the film block's pattern is the operator's (A(H) of ElasticFilm.residual)
+        self._indptr, self._indices = op.indptr.astype(PETSc.IntType), op.indices.astype(PETSc.IntType)
+        self.K = PETSc.Mat().createAIJ((n, n), csr=(self._indptr, self._indices, np.zeros(len(op.indices))),
+                                       comm=film.comm)
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(film.comm)
         self.ksp.setType("preonly")
@@ -499,19 +498,20 @@ class SchurLU:
         self._package = "petsc"  # of the film block's current factorisation
 
     def factor(self, inactive: PETSc.IS) -> None:
-        """Factorise for this inactive set (indices into (P, q))."""
+        """Factorise for this inactive set (indices into (P, q)); the blocks are ElasticFilm's (the
+        borders dense: SchurLU serves the modal film)."""
         film, n = self.film, self.film.n
         A, B, C, D = film.blocks
         keep = np.zeros(film.N, dtype=bool)
         keep[inactive.getIndices()] = True
         active = np.flatnonzero(~keep[:n]).astype(PETSc.IntType)
-        self.K.setValuesCSR(A.indptr.astype(PETSc.IntType), A.indices.astype(PETSc.IntType), A.data)
+        self.K.setValuesCSR(self._indptr, self._indices, A.data)
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
         self._factor_film_block()
-        B = B.toarray() if scipy.sparse.issparse(B) else B.copy()
+        B = B.copy()
         B[active] = 0.0
-        self.C = C.toarray() if scipy.sparse.issparse(C) else C.copy()
+        self.C = C.copy()
         self.C[:, active] = 0.0
         rhs = PETSc.Mat().createDense((n, film.m), array=np.asfortranarray(B), comm=film.comm)
         X = PETSc.Mat().createDense((n, film.m), comm=film.comm)
@@ -520,7 +520,7 @@ class SchurLU:
         self.X = X.getDenseArray().copy()
         rhs.destroy()
         X.destroy()
-        S = (D.toarray() if scipy.sparse.issparse(D) else np.asarray(D)) - self.C @ self.X
+        S = D - self.C @ self.X
         self.S = scipy.linalg.lu_factor(S, check_finite=False)
         self.failed = not (np.all(np.isfinite(self.X)) and np.all(np.isfinite(self.S[0])))
         self.inactive = inactive
@@ -530,25 +530,25 @@ class SchurLU:
         """LU of the film block: PETSc's own (numeric refactorisation of the fixed pattern); at a zero
         pivot (an iterate far from the solution can close the gap so far that a row vanishes) MUMPS,
         which pivots, for this factorisation, and PETSc's own again for the next one."""
-        pc = self.ksp.getPC()
         if self.failed or self._package != "petsc":
-            self.ksp.reset()
-            self.ksp.setType("preonly")
-            pc.setType("lu")
-            pc.setFactorSolverType("petsc")
-            self._package, self.failed = "petsc", False
+            self._use("petsc")
+            self.failed = False
         self.ksp.setOperators(self.K)
         self.ksp.setUp()
         self._bP.set(0.0)  # a zero pivot shows only in a solve's reason
         self.ksp.solve(self._bP, self._xP)
         if self.ksp.getConvergedReason() < 0:
-            self.ksp.reset()
-            self.ksp.setType("preonly")
-            pc.setType("lu")
-            pc.setFactorSolverType("mumps")
-            self._package = "mumps"
+            self._use("mumps")
             self.ksp.setOperators(self.K)
             self.ksp.setUp()
+
+    def _use(self, package: str) -> None:
+        """A new LU of the film block by ``package`` (analysis included at the next set-up)."""
+        self.ksp.reset()
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        self.ksp.getPC().setFactorSolverType(package)
+        self._package = package
 
     def _solve(self, b: np.ndarray) -> np.ndarray:
         n = self.film.n
