@@ -94,6 +94,9 @@ class Trajectory:
     next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
     jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian (pass it on)
     interpolant: object | None = None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
+    #: ESDIRK32 with ``stage_values``: the sum over the accepted steps of ``h sum_j b_j v_j``, the
+    #: method's own quadrature of the values v at the stages (e.g. powers: the work done over t_span)
+    stage_integral: np.ndarray | None = None
 
 
 class _System:
@@ -291,8 +294,12 @@ class ESDIRK32:
     def __init__(self, system: _System, t0: float, y0: np.ndarray, t_bound: float, *, rtol: float,
                  atol, max_step: float = np.inf, first_step: float | None = None,
                  jacobian_reuse: bool = False, jacobian: np.ndarray | None = None,
-                 interpolant: _HermiteOutput | None = None):
+                 interpolant: _HermiteOutput | None = None,
+                 stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None):
         self.system = system
+        #: values at a force evaluation (t, y, qdd, lambda), integrated by the stage quadrature
+        self.stage_values = stage_values
+        self.quadrature: np.ndarray | None = None  # h sum_j b_j v_j of the last accepted step
         self.jacobian_reuse = jacobian_reuse
         #: the latest ODE Jacobian (kept across iterations, stages and steps when reusing)
         self.jacobian = jacobian if jacobian_reuse else None
@@ -302,6 +309,7 @@ class ESDIRK32:
         self.newton_tolerance = max(10.0 * np.finfo(float).eps / rtol, min(0.03, rtol**0.5))
         self.f = system.rhs(t0, self.y)
         self._anchor = system.last_evaluation
+        self._anchor_value = self._values()
         self.status = "running" if t_bound > t0 else "finished"
         self.nlu = 0
         self.h = first_step if first_step is not None else self._initial_step()
@@ -314,7 +322,12 @@ class ESDIRK32:
         """dy/dt at a new current state (one force evaluation; used after a projection)."""
         result = self.system.rhs(t, y)
         self._anchor = self.system.last_evaluation
+        self._anchor_value = self._values()
         return result
+
+    def _values(self) -> np.ndarray | None:
+        """``stage_values`` at the latest force evaluation (None without them)."""
+        return None if self.stage_values is None else np.asarray(self.stage_values(*self.system.last_evaluation))
 
     def _norm(self, x: np.ndarray, reference: np.ndarray) -> float:
         return float(np.sqrt(np.mean((x / (self.atol + self.rtol * np.abs(reference))) ** 2)))
@@ -415,6 +428,7 @@ class ESDIRK32:
                 self.status = "failed"
                 return f"step size {h:.3g} s below the minimum (Newton failures or error test)"
             stages = [f0]
+            values = [self._anchor_value]  # stage_values at the stages (at their last Newton iterates)
             first_stage = None  # the converged first stage, for the guesses of stages 2 and 3
             result = None
             for i in range(1, 4):
@@ -432,6 +446,7 @@ class ESDIRK32:
                 if result is None:
                     break
                 stages.append((result[0] - base) / (h * self.GAMMA))
+                values.append(self._values())
                 if i == 1:
                     first_stage = result[0]
             if result is None:
@@ -459,6 +474,9 @@ class ESDIRK32:
         self.t = t + h if self.t_bound - (t + h) > 1e-14 * abs(self.t_bound) else self.t_bound
         self.y, self.f = y_new, stages[3]
         self._anchor = self.system.last_evaluation
+        if self.stage_values is not None:
+            self.quadrature = h * sum(self.B[j] * values[j] for j in range(4))
+        self._anchor_value = values[3]
         if self.t >= self.t_bound:
             self.status = "finished"
         return None
@@ -509,6 +527,7 @@ def integrate(
     interpolant: object | None = None,
     accelerations: bool = True,
     on_step: Callable[[float], None] | None = None,
+    stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> Trajectory:
     """Integrate the mechanism from (q0, qd0) over t_span with error control.
 
@@ -543,6 +562,12 @@ def integrate(
             (the last force evaluation was then the step's last stage, at that time): a force element
             with history (an elastic bushing's deformation) commits its state there; a rejected step
             never calls it.
+        stage_values: ESDIRK32: a function of a force evaluation ``(t, y, qdd, lambda)`` returning an
+            array (e.g. powers), called right after the evaluation at each step's start and at the last
+            Newton iterate of each of its stages (the state the force elements were last evaluated at,
+            so their caches answer without a new solve); ``Trajectory.stage_integral`` is then the sum
+            over the accepted steps of ``h sum_j b_j v_j``, the method's third-order quadrature along
+            its own stages (rejected attempts do not count).
 
     Returns:
         The :class:`Trajectory`.
@@ -566,6 +591,7 @@ def integrate(
         solver = ESDIRK32(
             system, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
             jacobian_reuse=jacobian_reuse, jacobian=jacobian, interpolant=interpolant,
+            stage_values=stage_values,
         )
     else:
         options = {"rtol": rtol, "atol": atol, "max_step": max_step}
@@ -604,12 +630,17 @@ def integrate(
     else:
         record(t0, solver.y)
 
+    if stage_values is not None and method != "ESDIRK32":
+        raise ValueError(f"stage_values needs method = 'ESDIRK32' (got {method!r})")
     n_steps = 0
+    stage_integral = None
     while solver.status == "running":
         message = solver.step()
         if solver.status == "failed":
             raise IntegrationError(f"{method} failed at t = {solver.t:.6g} s: {message}")
         n_steps += 1
+        if stage_values is not None:
+            stage_integral = solver.quadrature if stage_integral is None else stage_integral + solver.quadrature
         if on_step is not None:
             on_step(solver.t)
         if pending is not None and pending.size and pending[0] <= solver.t:
@@ -644,4 +675,5 @@ def integrate(
         next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
         jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
         interpolant=solver.dense_output() if method == "ESDIRK32" else None,
+        stage_integral=stage_integral,
     )

@@ -73,6 +73,13 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "input_power": ("W", "power of the crank driver and the gas on the mechanism"),
     "kinetic_energy": ("J", "kinetic energy of the mechanism"),
     "potential_energy": ("J", "gravitational potential energy of the mechanism"),
+    "input_work": ("J", "work of the crank driver (from the crank's generalized momentum) and of the gas since "
+                   "the cycle's start"),
+    "dissipated_energy": ("J", "energy dissipated in the joint since the cycle's start, integrated along the "
+                          "integrator's stages"),
+    "drift_work": ("J", "work of the ideal joints' reactions on the integrator's velocity-constraint residual "
+                   "since the cycle's start, with the kinetic energy of the velocities' projection at the "
+                   "outputs: a numerical term (0 for an exact solution)"),
 }
 
 
