@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set up what is missing on a Debian 12 machine, idempotently: Debian packages (dolfinx, gmsh,
-# PETSc, MPI, xarray, netCDF4, matplotlib, tqdm, scipy, pytest, ParaView for a test), then a virtual environment .venv made
+# PETSc, MPI, xarray, netCDF4, matplotlib, tqdm, scipy, pytest, ParaView for a test, OpenBLAS), then a virtual environment .venv made
 # from /usr/bin/python3 with --system-site-packages, this package installed editable and import-linter.
 # The second run only checks and takes a second or two.
 set -euo pipefail
@@ -8,7 +8,9 @@ cd "$(dirname "$0")/.."
 
 packages=(python3-dolfinx python3-gmsh python3-xarray python3-netcdf4 python3-pytest python3-matplotlib
           python3-tqdm python3-scipy python3-mpi4py python3-petsc4py python3-venv python3-pip openmpi-bin
-          paraview python3-paraview)  # ParaView's reader checks the time series (tests/study)
+          paraview python3-paraview  # ParaView's reader checks the time series (tests/study)
+          libopenblas0-serial)  # BLAS and LAPACK for numpy, scipy, PETSc and MUMPS instead of Debian's
+                                # reference BLAS (README: Benchmarks); serial: one thread per MPI rank
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
