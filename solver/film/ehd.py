@@ -34,7 +34,8 @@ same UFL expressions as the rigid film, evaluated at the cell midpoints: the ope
 (solver.film.tensors). A relaxed fixed-point loop between film and structure converges badly at
 engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
 systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
-block's fixed pattern, m back-substitutions, a dense m x m LU); node by node (Winkler) the matrix
+block's fixed pattern; the m x m Schur system by GMRES preconditioned with the last complement formed,
+which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler) the matrix
 keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS). Either way
 the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
@@ -170,6 +171,14 @@ class ElasticFilm:
             self._average_Phi, self._slope_Phi = self.average_Phi.toarray(), self.slope_Phi.toarray()
             self._J_qP = self.J_qP.toarray()
             self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
+            # dR_P/dq = [dH, dslope] @ [dW_K/dq; dW'_K/dq]: one sparse (n x 2 cells) @ dense product, its
+            # CSR structure fixed (each cell's 3 vertices, twice): the values are permuted into it
+            n_cells = len(cells)
+            rows = np.concatenate([op.dofs.ravel(), op.dofs.ravel()])
+            cols = np.concatenate([c3, c3 + n_cells])
+            order = scipy.sparse.csr_matrix((np.arange(1.0, len(rows) + 1.0), (rows, cols)), shape=(n, 2 * n_cells))
+            self._border = (order.indices, order.indptr, order.data.astype(np.int64) - 1, (n, 2 * n_cells))
+            self._stacked_Phi = np.vstack([self._average_Phi, self._slope_Phi])
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
@@ -282,15 +291,19 @@ class ElasticFilm:
                  + k[:, 1, None] * np.einsum("cij,cj->ci", op.local_z, P_cells)
                  + (k[:, 2] * op.weight / 3.0)[:, None])  # d(A_K P_K + l_K)/dH_K at each vertex
         n_cells = len(op.cells)
-        rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
-        dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
-        dslope = scipy.sparse.csr_matrix((np.repeat(k[:, 3] * op.weight / 3.0, 3), (rows, cols)), shape=(n, n_cells))
+        slopes = np.repeat(k[:, 3] * op.weight / 3.0, 3)
         if self.dense:  # the same blocks as dense arrays (module docstring)
-            J_Pq = self.interior[:, None] * (dH @ self._average_Phi + dslope @ self._slope_Phi)
+            indices, indptr, position, shape = self._border
+            values = np.concatenate([local.ravel(), slopes])[position]
+            border = scipy.sparse.csr_matrix((values, indices, indptr), shape=shape)
+            J_Pq = self.interior[:, None] * (border @ self._stacked_Phi)
             touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
             J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (k[touching, 5, None] * self._average_Phi[touching])
             J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
         else:
+            rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
+            dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
+            dslope = scipy.sparse.csr_matrix((slopes, (rows, cols)), shape=(n, n_cells))
             J_Pq = scipy.sparse.diags(self.interior) @ (dH @ self.average_Phi + dslope @ self.slope_Phi)
             contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
             J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
@@ -468,14 +481,18 @@ class SchurLU:
     FixedPatternLU: one fixed pattern, numeric refactorisations only), B = dR_P/dq with the active rows
     zeroed, C = dR_q/dP with the active columns zeroed and D = dR_q/dq (m x m)::
 
-        X = A^-1 B (m solves with one factorisation),   S = D - C X (m x m, dense LU with pivoting)
-        dq = S^-1 (b_q - C A^-1 b_P),   dP = A^-1 b_P - X dq
+        S = D - C A^-1 B (m x m),   dq = S^-1 (b_q - C A^-1 b_P),   dP = A^-1 (b_P - B dq)
 
     The film block is an M-matrix (its rows become small where the gap closes, but stay diagonally
     dominant), so PETSc's LU without pivoting serves it; the dense borders, which made the whole
-    matrix need MUMPS's pivoting, only enter S. One factorisation costs an LU of the film matrix (~0.4
-    ms at 1620 dofs) and m back-substitutions, against MUMPS's ~7 ms on the whole matrix with 72
-    modes. Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
+    matrix need MUMPS's pivoting, only enter S. Forming S costs m back-substitutions (A^-1 B) and a
+    dense LU; S changes little from one Newton iteration, and one film solve, to the next, so it is
+    formed only when needed: the Schur system of a new factorisation is solved by GMRES preconditioned
+    with the last S formed (each iteration one back-substitution, ~5 on the engine cycle, to 1e-12),
+    and S is formed anew when that takes more than MAX_KRYLOV iterations (about one factorisation in
+    six on the engine cycle). One Newton step then costs an LU of the film matrix (~0.4 ms at 1620
+    dofs) and a few back-substitutions, against MUMPS's ~7 ms on the whole matrix with 72 modes.
+    Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
     """
 
     def __init__(self, film: ElasticFilm):
@@ -496,10 +513,20 @@ class SchurLU:
         self.limit = None
         self.failed = False
         self._package = "petsc"  # of the film block's current factorisation
+        self.S = None  # LU of the last Schur complement formed (exact for its factorisation, then a preconditioner)
+        self._exact = False
+        self.n_formed = self.n_krylov = 0  # Schur complements formed, Krylov iterations (statistics)
+
+    #: Krylov iterations on the Schur system before its complement is formed anew (m back-substitutions)
+    MAX_KRYLOV = 6
+    #: relative residual of the Schur system at which the Krylov iteration stops (the direct solve's level)
+    KRYLOV_TOLERANCE = 1e-12
 
     def factor(self, inactive: PETSc.IS) -> None:
         """Factorise for this inactive set (indices into (P, q)); the blocks are ElasticFilm's (the
-        borders dense: SchurLU serves the modal film)."""
+        borders dense: SchurLU serves the modal film). Only the film block is factorised here; the Schur
+        complement is formed (m back-substitutions) when the last one no longer preconditions the Schur
+        system well (``_solve``)."""
         film, n = self.film, self.film.n
         A, B, C, D = film.blocks
         keep = np.zeros(film.N, dtype=bool)
@@ -509,22 +536,76 @@ class SchurLU:
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
         self._factor_film_block()
-        B = B.copy()
-        B[active] = 0.0
+        self.B = B.copy()
+        self.B[active] = 0.0
         self.C = C.copy()
         self.C[:, active] = 0.0
-        rhs = PETSc.Mat().createDense((n, film.m), array=np.asfortranarray(B), comm=film.comm)
-        X = PETSc.Mat().createDense((n, film.m), comm=film.comm)
-        X.setUp()
-        self.ksp.getPC().getFactorMatrix().matSolve(rhs, X)
-        self.X = X.getDenseArray().copy()
-        rhs.destroy()
-        X.destroy()
-        S = D - self.C @ self.X
-        self.S = scipy.linalg.lu_factor(S, check_finite=False)
-        self.failed = not (np.all(np.isfinite(self.X)) and np.all(np.isfinite(self.S[0])))
+        self.D = D
+        self._exact = False  # whether self.S is this factorisation's Schur complement
+        if self.S is None:
+            self._form_schur()
         self.inactive = inactive
         self.local = inactive.getIndices()
+
+    def _form_schur(self) -> None:
+        """S = D - C A^-1 B of the current factorisation (m back-substitutions, one dense LU)."""
+        n, m = self.film.n, self.film.m
+        rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(self.B), comm=self.film.comm)
+        X = PETSc.Mat().createDense((n, m), comm=self.film.comm)
+        X.setUp()
+        self.ksp.getPC().getFactorMatrix().matSolve(rhs, X)
+        X_array = X.getDenseArray()
+        S = self.D - self.C @ X_array
+        rhs.destroy()
+        X.destroy()
+        self.S = scipy.linalg.lu_factor(S, check_finite=False)
+        self._exact = True
+        self.n_formed += 1
+        if not (np.all(np.isfinite(X_array)) and np.all(np.isfinite(self.S[0]))):
+            self.failed = True
+
+    def _film_solve(self, b: np.ndarray) -> np.ndarray:
+        """A^-1 b with the film block's factorisation (one back-substitution)."""
+        self._bP.setArray(b)
+        self.ksp.solve(self._bP, self._xP)
+        if self.ksp.getConvergedReason() < 0:
+            self.failed = True
+        return self._xP.getArray(readonly=True).copy()
+
+    def _schur_solve(self, r: np.ndarray) -> np.ndarray:
+        """S^-1 r for this factorisation's S = D - C A^-1 B: directly with its own complement, else by
+        GMRES preconditioned (on the right) with the last complement formed, whose Schur system differs
+        from this one by the change of the film block since (a few iterations, one back-substitution
+        each); when that does not reach KRYLOV_TOLERANCE in MAX_KRYLOV iterations the complement is
+        formed anew and used directly."""
+        if self._exact:
+            return scipy.linalg.lu_solve(self.S, r, check_finite=False)
+        norm = float(np.linalg.norm(r))
+        if norm == 0.0:
+            return np.zeros_like(r)
+        apply = lambda v: self.D @ v - self.C @ self._film_solve(self.B @ v)  # noqa: E731
+        precondition = lambda v: scipy.linalg.lu_solve(self.S, v, check_finite=False)  # noqa: E731
+        k_max = self.MAX_KRYLOV
+        basis = np.zeros((k_max + 1, r.size))
+        hessenberg = np.zeros((k_max + 1, k_max))
+        basis[0] = r / norm
+        for k in range(k_max):
+            w = apply(precondition(basis[k]))
+            for i in range(k + 1):  # modified Gram-Schmidt
+                hessenberg[i, k] = w @ basis[i]
+                w = w - hessenberg[i, k] * basis[i]
+            hessenberg[k + 1, k] = np.linalg.norm(w)
+            e1 = np.zeros(k + 2)
+            e1[0] = norm
+            y = np.linalg.lstsq(hessenberg[: k + 2, : k + 1], e1, rcond=None)[0]
+            residual = float(np.linalg.norm(hessenberg[: k + 2, : k + 1] @ y - e1))
+            if residual <= self.KRYLOV_TOLERANCE * norm or hessenberg[k + 1, k] == 0.0:
+                self.n_krylov += k + 1
+                return precondition(basis[: k + 1].T @ y)
+            basis[k + 1] = w / hessenberg[k + 1, k]
+        self.n_krylov += k_max
+        self._form_schur()
+        return scipy.linalg.lu_solve(self.S, r, check_finite=False)
 
     def _factor_film_block(self) -> None:
         """LU of the film block: PETSc's own (numeric refactorisation of the fixed pattern); at a zero
@@ -552,13 +633,9 @@ class SchurLU:
 
     def _solve(self, b: np.ndarray) -> np.ndarray:
         n = self.film.n
-        self._bP.setArray(b[:n])
-        self.ksp.solve(self._bP, self._xP)
-        if self.ksp.getConvergedReason() < 0:
-            self.failed = True
-        y0 = self._xP.getArray(readonly=True)
-        dq = scipy.linalg.lu_solve(self.S, b[n:] - self.C @ y0, check_finite=False)
-        return np.concatenate([y0 - self.X @ dq, dq])
+        y0 = self._film_solve(b[:n])
+        dq = self._schur_solve(b[n:] - self.C @ y0)
+        return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """x = K^-1 b (b must vanish on the active set of the factorisation)."""
