@@ -383,9 +383,9 @@ class _Run:
         if element is not None:
             kin = element.kinematics(q, qd)
             dissipated = _joint_powers(kin, element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t), qd)[2]
-        crank_torque = joint_reactions(mech, q, t, lam)["crank_driver"][CRANK, 2]
-        constraint = -float(lam @ (mech.jacobian(q, t) @ qd))
-        return np.array([dissipated, constraint - crank_torque * qd[3 * CRANK + 2]])
+        power = -lam * (mech.jacobian(q, t) @ qd)  # each constraint's reaction on the velocities
+        power[mech.rows["crank_driver"]] = 0.0  # the driver's is its input
+        return np.array([dissipated, float(power.sum())])
 
     # -- film temperature ---------------------------------------------------------------------------
     def set_film_temperature(self, temperature: float, t: float) -> None:
