@@ -249,8 +249,8 @@ class _Run:
         qdd, lam = accelerations(self.em.mechanism, q, qd, t, Q, alpha=self.omega, beta=self.omega)
         out = self._outputs(t, q, qd, qdd, lam)
         # the crank's momentum on arrival (the integrator's velocities) and after the projection
-        out["_crank_momentum_arrival"] = self._crank_momentum(t, q, arrival)[0]
-        out["_crank_momentum"], out["_crank_momentum_source"] = self._crank_momentum(t, q, qd, Q)
+        (out["_crank_momentum_arrival"], out["_crank_momentum"]), out["_crank_momentum_source"] = \
+            self._crank_momentum(t, q, (arrival, qd), Q)
         out["_crank_speed"] = qd[3 * CRANK + 2]
         return out, qd
 
@@ -268,21 +268,21 @@ class _Run:
             rhs.append(np.zeros(2))
         return np.linalg.solve(np.vstack(rows), np.concatenate(rhs))
 
-    def _crank_momentum(self, t: float, q, qd, Q=None) -> tuple[float, float]:
-        """(p, s) with p = V . M qd the crank's generalized momentum at fixed eccentricity [N m s] and
-        s = dV/dt . M qd + V . Q [N m] (_crank_direction): since V . (M qdd - Q) is the driver's torque tau
-        (V does no virtual work against the other constraints), ``tau = dp/dt - s``. s holds the gas,
-        gravity and joint loads on the crank rotation (the joint's only through e x F and its torques)
-        and no accelerations, so it is smooth where tau is not (_input_work)."""
+    def _crank_momentum(self, t: float, q, velocities: tuple, Q) -> tuple[tuple[float, ...], float]:
+        """((p for each of ``velocities``), s) with p = V . M qd the crank's generalized momentum at fixed
+        eccentricity [N m s] and s = dV/dt . M qd + V . Q [N m] at the last velocities (_crank_direction):
+        since V . (M qdd - Q) is the driver's torque tau (V does no virtual work against the other
+        constraints), ``tau = dp/dt - s``. s holds the gas, gravity and joint loads on the crank rotation
+        (the joint's only through e x F and its torques) and no accelerations, so it is smooth where tau
+        is not (_input_work)."""
         mech = self.em.mechanism
         masses = np.concatenate([[b.mass, b.mass, b.inertia] for b in mech.bodies])
         V = self._crank_direction(q, t)
-        if Q is None:
-            return float(V @ (masses * qd)), math.nan
+        qd = velocities[-1]
         eps = self.DIRECTION_STEP
         V_dot = (self._crank_direction(q + eps * qd, t + eps) - self._crank_direction(q - eps * qd, t - eps)) / (2 * eps)
         momentum = masses * qd
-        return float(V @ momentum), float(V_dot @ momentum + V @ Q)
+        return tuple(float(V @ (masses * v)) for v in velocities), float(V_dot @ momentum + V @ Q)
 
     def _consistent(self, t: float, q, qd) -> np.ndarray:
         """Velocities on the constraint manifold that keep the joint's relative motion (outputs).
