@@ -638,7 +638,11 @@ class SchurLU:
         return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        """x = K^-1 b (b must vanish on the active set of the factorisation)."""
+        """x = K^-1 b (b must vanish on the active set of the factorisation). For the sensitivities:
+        several right-hand sides, of another kind than Newton's, so the complement is formed first
+        (GMRES from the last one took more iterations on them than forming it costs)."""
+        if not self._exact:
+            self._form_schur()
         x.setArray(self._solve(b.getArray(readonly=True)))
         if self.failed or not np.all(np.isfinite(x.getArray(readonly=True))):
             self.failed = True
