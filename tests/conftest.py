@@ -97,3 +97,18 @@ def interrupt_and_resume(case: Path, monkeypatch, stop_at_cycle: int):
     resumed = simulation.run_case(case, MPI.COMM_SELF)
     assert f"resuming after cycle {stop_at_cycle}" in (case / "results" / "run.log").read_text()
     return resumed
+
+
+def energy_balance(ds) -> tuple[float, float]:
+    """(audit, outputs) relative errors of a results.nc's last cycle, over its dissipated energy: the
+    audit ``input_work - dE - dissipated_energy + drift_work`` (README, Energy audit), and the older
+    measure, Simpson's rule on the outputs' input and dissipated powers."""
+    from scipy.integrate import simpson
+
+    change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0])
+    dissipated = float(ds.dissipated_energy[-1])
+    audit = float(ds.input_work[-1]) - change - dissipated + float(ds.drift_work[-1])
+    t = ds.time.values
+    sampled = simpson(ds.dissipated_power.values, x=t)
+    outputs = simpson(ds.input_power.values, x=t) - change - sampled
+    return audit / dissipated, outputs / sampled

@@ -18,6 +18,7 @@ import xarray as xr
 
 from solver.study import io
 from solver.study.simulation import run_case
+from tests.conftest import energy_balance
 from tests.study.test_engine_coupled import make_case
 
 T_BUSHING, E_BUSHING, NU_BUSHING = 1.5e-3, 115e9, 0.33  # the reference small end's bronze bushing
@@ -81,6 +82,18 @@ def test_the_elastic_small_end_runs_the_firing_cycle_and_carries_the_load(winkle
     error = np.hypot(ds.pin_force_x - ds.ideal_pin_force_x, ds.pin_force_y - ds.ideal_pin_force_y)
     peak = float(np.hypot(ds.ideal_pin_force_x, ds.ideal_pin_force_y).max())
     assert float((error < 0.05 * peak).mean()) >= 0.9
+
+
+@pytest.mark.serial
+def test_the_energy_audit_closes_on_the_elastic_cycle(winkler_run):
+    """The elastic engine cycle's energy balance (issue target 1 %): the results' audit within 1 % of the
+    dissipated energy on this coarse, one-cycle run (measured -0.16 %; the reference elastic case at
+    its resolution +0.005 %, README). The bushing's strain energy is not in the balance; its change
+    over the cycle (from the centred pin to the ~1 kN inertia load at 0 deg, a few hundredths of a
+    micrometre of deformation) is far below the tolerance."""
+    ds, _, _ = winkler_run
+    audit, _ = energy_balance(ds)
+    assert abs(audit) < 0.01, audit
 
 
 @pytest.mark.serial

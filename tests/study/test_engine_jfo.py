@@ -3,9 +3,9 @@
 References: the oil balance of the film over a periodic cycle (what the edges take in and give out is
 what the film stores: a conservation law, checked from results.nc alone), the complementarity in the
 ParaView snapshot, and an uninterrupted run for the checkpoint (the film fraction's history must
-survive a resume: exact equality, the integration is deterministic). The energy balance needs the
-case's resolution (the pin crosses its clearance at gas-exchange TDC in a fraction of a degree): it
-is in the README's verification study, not here.
+survive a resume: exact equality, the integration is deterministic), and the energy balance of the
+results' audit (the work of the driver and the gas against the change of mechanical energy and the
+energy dissipated in the joint), which holds on these coarse runs too.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from mpi4py import MPI
 from scipy.integrate import simpson
 
 from solver.study.simulation import run_case
-from tests.conftest import interrupt_and_resume, run_cli
+from tests.conftest import energy_balance, interrupt_and_resume, run_cli
 from tests.study.test_engine_coupled import make_case
 
 JFO = '[oil]\ncavitation = "jfo"\ncavitation_pressure_bar = -0.9\n'
@@ -77,6 +77,19 @@ def test_the_film_keeps_its_oil_over_the_cycle(jfo_run):
 
 
 @pytest.mark.serial
+def test_the_energy_audit_closes_on_the_coarse_jfo_cycle(jfo_run):
+    """The results' energy audit of the last cycle within 1 % of the dissipated energy (the issue's
+    target for the JFO engine; measured -0.70 % on these 2 deg outputs, -0.02 to -0.15 % at the
+    default resolution, README). The pin crosses its clearance in a fraction of a degree here: Simpson's
+    rule on the outputs' powers, the older measure, is off by more than 10 % (measured +41 %), so the
+    audit's driver work from the crank's momentum is what closes it."""
+    _, ds, _, _ = jfo_run
+    audit, outputs = energy_balance(ds)
+    assert abs(audit) < 0.01, audit
+    assert abs(outputs) > 0.10, outputs
+
+
+@pytest.mark.serial
 def test_the_paraview_snapshot_carries_the_film_fraction(jfo_run):
     """The snapshot at 380 deg holds the film fraction beside the pressure, with values in [0, 1] and a
     ruptured zone (some below 1) where the pressure is at the cavitation pressure."""
@@ -125,7 +138,8 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
     """One coarse cycle (0.15 R, 5 deg outputs) with a Winkler bushing and the JFO film: the whole cycle,
     the bushing deforming by micrometres at firing, the film ruptured over part of the bushing and its
     oil balance from results.nc within 3 % of the side flow's integral (the coarse rigid cycle: 0.8 %
-    at 1 deg; this one's first cycle starts from a centred pin and a full film)."""
+    at 1 deg; this one's first cycle starts from a centred pin and a full film); the energy audit
+    within 1 % of the dissipated energy (measured -0.17 %; the outputs' Simpson: +22 %)."""
     case = make_case(tmp_path / "winkler-jfo", "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\n"
                                                "field_angles_deg = []\n")
     toml = case / "case.toml"
@@ -144,4 +158,6 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
         t, side, volume = ds.time.values, ds.side_flow.values, ds.oil_volume.values
         closure = (simpson(-side, x=t) - (volume[-1] - volume[0])) / simpson(np.abs(side), x=t)
         assert abs(closure) < 0.03
+        audit, _ = energy_balance(ds)
+        assert abs(audit) < 0.01, audit
 
