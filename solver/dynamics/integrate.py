@@ -563,11 +563,12 @@ def integrate(
             with history (an elastic bushing's deformation) commits its state there; a rejected step
             never calls it.
         stage_values: ESDIRK32: a function of a force evaluation ``(t, y, qdd, lambda)`` returning an
-            array (e.g. powers), called right after the evaluation at each step's start and at the last
-            Newton iterate of each of its stages (the state the force elements were last evaluated at,
-            so their caches answer without a new solve); ``Trajectory.stage_integral`` is then the sum
-            over the accepted steps of ``h sum_j b_j v_j``, the method's third-order quadrature along
-            its own stages (rejected attempts do not count).
+            array (e.g. powers), called right after the evaluation at the start (and after a
+            projection) and at the last Newton iterate of each stage (the state the force elements were
+            last evaluated at, so their caches answer without a new solve; a step's start is the last
+            stage of the step before); ``Trajectory.stage_integral`` is then the sum over the accepted
+            steps of ``h sum_j b_j v_j``, the method's third-order quadrature along its own stages
+            (rejected attempts do not count).
 
     Returns:
         The :class:`Trajectory`.
@@ -578,6 +579,8 @@ def integrate(
     if method not in EXPLICIT_METHODS and method not in IMPLICIT_METHODS:
         allowed = ", ".join([*EXPLICIT_METHODS, *IMPLICIT_METHODS])
         raise ValueError(f"method = {method!r} (allowed: {allowed})")
+    if stage_values is not None and method != "ESDIRK32":
+        raise ValueError(f"stage_values needs method = 'ESDIRK32' (got {method!r})")
     start = time.perf_counter()
     t0, t_end = float(t_span[0]), float(t_span[1])
     q0 = np.asarray(q0, dtype=float)
@@ -630,8 +633,6 @@ def integrate(
     else:
         record(t0, solver.y)
 
-    if stage_values is not None and method != "ESDIRK32":
-        raise ValueError(f"stage_values needs method = 'ESDIRK32' (got {method!r})")
     n_steps = 0
     stage_integral = None
     while solver.status == "running":

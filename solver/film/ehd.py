@@ -473,8 +473,9 @@ def deformation_peak(W: np.ndarray, coords: np.ndarray, clearance: float) -> tup
 
 
 class SchurLU:
-    """Exact solver of the reduced Newton systems of the coupled VI with a few deformation modes (m << n),
-    by the Schur complement of the film block: the same iterates as an LU of the whole matrix.
+    """Solver of the reduced Newton systems of the coupled VI with a few deformation modes (m << n), by
+    the Schur complement of the film block: the same iterates as an LU of the whole matrix (its Schur
+    system solved directly or by GMRES to 1e-12).
 
     On the inactive set (pressurised dofs and every mode) the system is ``[[A, B], [C, D]] [dP; dq] =
     [b_P; b_q]`` with A the film block (its active rows and columns replaced by identity rows, as in
@@ -525,8 +526,9 @@ class SchurLU:
     def factor(self, inactive: PETSc.IS) -> None:
         """Factorise for this inactive set (indices into (P, q)); the blocks are ElasticFilm's (the
         borders dense: SchurLU serves the modal film). Only the film block is factorised here; the Schur
-        complement is formed (m back-substitutions) when the last one no longer preconditions the Schur
-        system well (``_solve``)."""
+        complement is formed (m back-substitutions) the first time, after a failure, when the last one
+        no longer preconditions the Schur system well (``_schur_solve``) and for the sensitivities
+        (``solve_full``)."""
         film, n = self.film, self.film.n
         A, B, C, D = film.blocks
         keep = np.zeros(film.N, dtype=bool)
@@ -542,7 +544,7 @@ class SchurLU:
         self.C[:, active] = 0.0
         self.D = D
         self._exact = False  # whether self.S is this factorisation's Schur complement
-        if self.S is None:
+        if self.S is None or not np.all(np.isfinite(self.S[0])):  # (a failed one preconditions nothing)
             self._form_schur()
         self.inactive = inactive
         self.local = inactive.getIndices()
@@ -591,6 +593,9 @@ class SchurLU:
         basis[0] = r / norm
         for k in range(k_max):
             w = apply(precondition(basis[k]))
+            if self.failed or not np.all(np.isfinite(w)):  # a failed back-substitution: the step is NaN,
+                self.failed = True  # the SNES fails and the film solve with it (FilmNotConverged)
+                return np.full_like(r, np.nan)
             for i in range(k + 1):  # modified Gram-Schmidt
                 hessenberg[i, k] = w @ basis[i]
                 w = w - hessenberg[i, k] * basis[i]
