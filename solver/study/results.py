@@ -77,7 +77,7 @@ VARIABLES: dict[str, tuple[str, str]] = {
                    "the cycle's start"),
     "dissipated_energy": ("J", "energy dissipated in the joint since the cycle's start, integrated along the "
                           "integrator's stages"),
-    "drift_work": ("J", "work of the ideal joints' reactions on the integrator's velocity-constraint residual "
+    "drift_work": ("J", "work of the constraints' reactions on the integrator's velocity-constraint residual "
                    "since the cycle's start, with the kinetic energy of the velocities' projection at the "
                    "outputs: a numerical term (0 for an exact solution)"),
 }
