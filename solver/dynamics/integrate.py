@@ -299,7 +299,7 @@ class ESDIRK32:
         self.system = system
         #: values at a force evaluation (t, y, qdd, lambda), integrated by the stage quadrature
         self.stage_values = stage_values
-        self.quadrature: np.ndarray | None = None  # h sum_j b_j v_j of the last accepted step
+        self.stage_integral: np.ndarray | None = None  # sum over the accepted steps of h sum_j b_j v_j
         self.jacobian_reuse = jacobian_reuse
         #: the latest ODE Jacobian (kept across iterations, stages and steps when reusing)
         self.jacobian = jacobian if jacobian_reuse else None
@@ -475,7 +475,8 @@ class ESDIRK32:
         self.y, self.f = y_new, stages[3]
         self._anchor = self.system.last_evaluation
         if self.stage_values is not None:
-            self.quadrature = h * sum(self.B[j] * values[j] for j in range(4))
+            quadrature = h * sum(self.B[j] * values[j] for j in range(4))
+            self.stage_integral = quadrature if self.stage_integral is None else self.stage_integral + quadrature
         self._anchor_value = values[3]
         if self.t >= self.t_bound:
             self.status = "finished"
@@ -634,14 +635,11 @@ def integrate(
         record(t0, solver.y)
 
     n_steps = 0
-    stage_integral = None
     while solver.status == "running":
         message = solver.step()
         if solver.status == "failed":
             raise IntegrationError(f"{method} failed at t = {solver.t:.6g} s: {message}")
         n_steps += 1
-        if stage_values is not None:
-            stage_integral = solver.quadrature if stage_integral is None else stage_integral + solver.quadrature
         if on_step is not None:
             on_step(solver.t)
         if pending is not None and pending.size and pending[0] <= solver.t:
@@ -676,5 +674,5 @@ def integrate(
         next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
         jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
         interpolant=solver.dense_output() if method == "ESDIRK32" else None,
-        stage_integral=stage_integral,
+        stage_integral=getattr(solver, "stage_integral", None),
     )

@@ -261,13 +261,10 @@ class _Run:
     def _crank_direction(self, q, t: float) -> np.ndarray:
         """V: the velocities of a unit crank speed that keep the small end's eccentricity (and every
         constraint but the driver's), ``Phi_q V = e_driver``, ``de/dt(V) = 0``."""
-        mech, element = self.em.mechanism, self.em.small_end
-        rows, rhs = [mech.jacobian(q, t)], [np.zeros(mech.n_constraints)]
-        rhs[0][mech.rows["crank_driver"]] = 1.0
-        if element is not None:
-            rows.append(element.kinematics(q, np.zeros_like(q)).dz_dqd[2:4])
-            rhs.append(np.zeros(2))
-        return np.linalg.solve(np.vstack(rows), np.concatenate(rhs))
+        A = self._kept_motion(q, t)
+        rhs = np.zeros(len(A))
+        rhs[self.em.mechanism.rows["crank_driver"]] = 1.0
+        return np.linalg.solve(A, rhs)
 
     def _crank_momentum(self, t: float, q, velocities: tuple, Q) -> tuple[tuple[float, ...], float]:
         """((p for each of ``velocities``), s) with p = V . M qd the crank's generalized momentum at fixed
@@ -276,8 +273,7 @@ class _Run:
         constraints), ``tau = dp/dt - s``. s holds the gas, gravity and joint loads on the crank rotation
         (the joint's only through e x F and its torques) and no accelerations, so it is smooth where tau
         is not (_input_work)."""
-        mech = self.em.mechanism
-        masses = np.concatenate([[b.mass, b.mass, b.inertia] for b in mech.bodies])
+        masses = self.em.mechanism.mass_matrix.diagonal()
         V = self._crank_direction(q, t)
         qd = velocities[-1]
         eps = self.DIRECTION_STEP
@@ -295,15 +291,20 @@ class _Run:
         (a projection of the velocities at every output time), so the film solve of the outputs is
         also the first one of the next interval.
         """
-        mech, element = self.em.mechanism, self.em.small_end
-        if element is None:
+        mech = self.em.mechanism
+        if self.em.small_end is None:
             return qd
-        kin = element.kinematics(q, qd)
-        rows = [mech.jacobian(q, t), kin.dz_dqd[2:4]]
-        rhs = [-mech.phi_t(q, t), kin.dz_dqd[2:4] @ qd]
-        A, b = np.vstack(rows), np.concatenate(rhs)
-        correction = A.T @ np.linalg.lstsq(A @ A.T, b - A @ qd, rcond=None)[0]
-        return qd + correction
+        A = self._kept_motion(q, t)
+        residual = np.concatenate([-mech.phi_t(q, t) - A[: mech.n_constraints] @ qd, np.zeros(2)])
+        return qd + A.T @ np.linalg.lstsq(A @ A.T, residual, rcond=None)[0]
+
+    def _kept_motion(self, q, t: float) -> np.ndarray:
+        """The rows whose velocity a projection prescribes: ``Phi_q`` and, with a clearance small end,
+        ``d(de'/dt)/dqd`` (its eccentricity rate, kept), shape (n_constraints [+ 2], n_coordinates)."""
+        rows = [self.em.mechanism.jacobian(q, t)]
+        if self.em.small_end is not None:
+            rows.append(self.em.small_end.kinematics(q, np.zeros_like(q)).dz_dqd[2:4])
+        return np.vstack(rows)
 
     def _outputs(self, t: float, q, qd, qdd, lam) -> dict[str, float]:
         """The DESIGN 4 variables and the energy bookkeeping at one state (consistent velocities)."""
@@ -357,7 +358,7 @@ class _Run:
     def _energies(self, q, qd) -> tuple[float, float]:
         """(kinetic, gravitational potential) energy of the mechanism [J]."""
         mech = self.em.mechanism
-        masses = np.concatenate([[b.mass, b.mass, b.inertia] for b in mech.bodies])
+        masses = mech.mass_matrix.diagonal()
         x_cm = np.array([q[3 * i] for i in range(len(mech.bodies))])
         m = np.array([b.mass for b in mech.bodies])
         return 0.5 * float(np.sum(masses * qd**2)), float(np.sum(m * self.engine.gravity * x_cm))
