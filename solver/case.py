@@ -302,6 +302,10 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("solver", "mesh_size", "mesh_size", None, 1.0, 0.0, 1.0,
        doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the half width"),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
+    FieldSpec("solver", "film_fraction_transport", "film_fraction_transport", str, "limited",
+              choices=("limited", "upwind"),
+              doc="oil.cavitation = jfo: the film fraction's transport, limited (second order, flux-corrected "
+                  "upwinding; the default) or upwind (first order: the scheme before 2026-11-26)"),
     FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
               doc="at most this many 720 deg cycles (the last one is reported)"),
     _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
@@ -540,6 +544,7 @@ class Solver:
     joint: str = "mixed-fem"
     mesh_size: float | None = _field("solver", "mesh_size")  # element size / pin radius; None: the film's default
     rtol: float = _field("solver", "rtol")
+    film_fraction_transport: str = "limited"  # limited | upwind (solver.film.jfo)
     max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
     field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad

@@ -330,5 +330,5 @@ def joint_from_case(case: Case, engine, comm, joint: str):
                       roughness=surface.roughness(), contact=surface.contact(),
                       slip_regularisation=solver.slip_regularisation, elastic=elastic,
                       piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
-                      cavitation=oil.cavitation)
+                      cavitation=oil.cavitation, transport=solver.film_fraction_transport)
     return FilmJoint(model), model

@@ -84,7 +84,7 @@ from solver.film.mesh import (
     SupplyHole,
     film_mesh,
 )
-from solver.film.jfo import JFOSolver
+from solver.film.jfo import JFOSolver, TransportLimiter
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MidpointOperator, PressureTorque, RigidMidpointCoefficients
 
@@ -127,6 +127,10 @@ def _form(expression):
 
 INLETS = ("max-gap", "none")
 CAVITATION_MODELS = ("reynolds", "jfo")
+#: the JFO film fraction's transport in time (solver.film.jfo): "limited", second order
+#: (TransportLimiter, from the last committed film fraction), or "upwind", first order (Kuzmin's
+#: discrete upwinding alone, the scheme before the limiter); quasi-static solves are upwind either way
+TRANSPORT_SCHEMES = ("limited", "upwind")
 GROOVES = ("none", "axial", "circumferential")
 MAX_ECCENTRICITY = 0.9995  # equilibrium search limit (h_min = 5e-4 c)
 STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method stalls on the VI's kinks
@@ -382,13 +386,16 @@ class FilmModel:
     def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
                  degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
                  options: dict | None = None, half: bool = True, elastic=None, piezoviscosity=None,
-                 cavitation: str = "reynolds"):
+                 cavitation: str = "reynolds", transport: str = "limited"):
         with _quiet_jit():
             self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-                        half, elastic, piezoviscosity, cavitation)
+                        half, elastic, piezoviscosity, cavitation, transport)
 
     def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-               half, elastic, piezoviscosity, cavitation) -> None:
+               half, elastic, piezoviscosity, cavitation, transport) -> None:
+        if transport not in TRANSPORT_SCHEMES:
+            raise out_of_range("film-fraction transport", repr(transport), " or ".join(map(repr, TRANSPORT_SCHEMES)))
+        self.transport = transport
         self.bearing = bearing
         self.elastic = elastic
         self.piezo = piezoviscosity
@@ -490,6 +497,9 @@ class FilmModel:
         self._jfo = self._jfo_film() if cavitation == "jfo" else None
         self._ehd = self._elastic_film(options) if elastic is not None else None
         self._jfo_derivatives = None  # the JFO residual's kinematic derivatives at the cell midpoints
+        self._limiter: TransportLimiter | None = None  # the film fraction's limited transport (transport)
+        self._limited = None  # its factors for the current committed film fraction (LimitedTransport)
+        self._limited_key: tuple | None = None  # (time, film fraction) they were computed from
         if self._jfo is not None:
             is_bc = np.zeros(len(self._owned_coords), dtype=bool)
             for dofs, _ in self._jfo.prescribed.values():
@@ -499,6 +509,12 @@ class FilmModel:
             layout = self._jfo.csr_layout()
             if not (np.array_equal(layout[0], self._operator.indptr) and np.array_equal(layout[1], self._operator.indices)):
                 raise RuntimeError("the JFO film's matrices and the operator's have different CSR layouts")
+            if transport == "limited":
+                self._limiter = TransportLimiter(*layout)
+                # the flow's orientation and couplings for the limiter: the Couette matrix of a unit flux
+                # along +theta (the film's own flux reverses with the sliding; LimitedTransport picks the
+                # orientation edge by edge), so the factors do not depend on the state being solved
+                self._unit_couette = self._jfo_derivatives.T_C @ np.ones(len(self._operator.cells))
         # nodal areas of the film (integral of each basis function): the cavitated area
         self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
         self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -875,6 +891,7 @@ class FilmModel:
             self._set_rate(time_s)
         if self._jfo is not None:
             self._jfo_rate = self._film_fraction_rate(time_s)
+            self._limit_transport()
             if self._ehd is not None:
                 self._ehd.rate = self._jfo_rate
         try:
@@ -997,6 +1014,23 @@ class FilmModel:
         rate = self._bdf2(time_s, lambda x: 1.0 + np.minimum(x[:n], 0.0))
         return None if rate is None else (self.scales.omega_ref / rate[0], rate[1])
 
+    def _limit_transport(self) -> None:
+        """The limited transport's factors (solver.film.jfo.TransportLimiter) from the last committed film
+        fraction before this solve (``_film_fraction_rate`` set it as the fall-back start), computed once
+        per committed state; none (upwind) for a quasi-static solve or with transport 'upwind'."""
+        limited = None
+        if self._limiter is not None and self._jfo_rate is not None and self._start is not None:
+            n = len(self._owned_coords)
+            t_n, x_n = self._start
+            key = (t_n, x_n[:n].tobytes())
+            if key != self._limited_key:
+                self._limited = self._limiter.limit(self._unit_couette, 1.0 + np.minimum(x_n[:n], 0.0))
+                self._limited_key = key
+            limited = self._limited
+        self._jfo_derivatives.limited = limited
+        if self._ehd is not None:
+            self._ehd.mid.limited = limited
+
     def _solve_jfo(self) -> int:
         """The mass-conserving film at the current constants, with the film fraction's rate from the
         committed states (``_film_fraction_rate``; quasi-static without one); P = P_cav + max(u, 0)."""
@@ -1004,7 +1038,7 @@ class FilmModel:
         # the forms' midpoint rule without dolfinx's assembly; the operator's integrals (the Couette
         # torques) from the same evaluation
         matrices, self._operator.integrals = self._jfo_derivatives.operator()
-        jfo.set_operator(*matrices)
+        jfo.set_operator(*matrices, limited=self._jfo_derivatives.limited)
         dT, theta_old = self._jfo_rate if self._jfo_rate is not None else (None, None)
         # from the last solve; if semismooth Newton cycles from there (a far state of a Newton iteration),
         # from the last committed state, then from the full film (whose first step is the Reynolds

@@ -7,7 +7,8 @@ the deformed gap H = H_rigid + Phi q of solver.film.ehd, with the bushing's equa
     R_q(u, q) = q - g * Phi^T (a p(P) + F_c(H)) = 0
 
 K the Poiseuille matrix (H^3 phi_x, H^3 phi_y), T the conservative Couette transport of the mean gap
-h_T with Kuzmin's upwinding, s the storage in its rate form: m (theta - theta_ref) / dT + mdot theta,
+h_T with Kuzmin's upwinding (limited edge by edge when ``MidpointJFO.limited`` is set: solver.film.jfo.
+TransportLimiter, from the last committed film fraction), s the storage in its rate form: m (theta - theta_ref) / dT + mdot theta,
 m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT phi_i), with the deformation's rate inside
 dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by BDF2 through the committed states
 (``theta_ref``, ``dT``; solver.film.bearing). Every coefficient is evaluated at the cell midpoints
@@ -87,6 +88,9 @@ class MidpointJFO:
         self.transpose = np.searchsorted(keys, op.indices.astype(np.int64) * n + self.rows)
         self.off = self.rows != op.indices
         self.diagonal = np.flatnonzero(~self.off)
+        #: the film fraction's limited transport (solver.film.jfo.TransportLimiter), set per solve by the
+        #: film; None: upwind
+        self.limited = None
 
     def operator(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
         """((K's CSR values, the Couette matrix's before upwinding, m, mdot), the operator's integrals)
@@ -100,10 +104,13 @@ class MidpointJFO:
     def upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(upwinded values, d_ij, pick_self) of the Couette matrix's CSR values C: Kuzmin's edge
         diffusion d_ij = max(0, C_ij, C_ji), the pair's larger entry picked the same way from both
-        sides (ties: the one in the lower row)."""
+        sides (ties: the one in the lower row); with ``limited`` scaled edge by edge by 1 - alpha_ij
+        (constant at a state: the limiter's film fraction is a committed one)."""
         Ct = C[self.transpose]
         pick_self = (C > Ct) | ((C == Ct) & (self.rows < self.op.indices))
         d = np.where(self.off, np.maximum(0.0, np.where(pick_self, C, Ct)), 0.0)
+        if self.limited is not None:
+            d = d * self.limited.factor(pick_self)
         values = C - d
         values[self.diagonal] += np.add.reduceat(d, self.op.indptr[:-1])
         return values, d, pick_self
@@ -122,6 +129,8 @@ class MidpointJFO:
         couette = self.local_couette
         diffusion = np.where(picked, couette, 0.0) + np.where(other, np.swapaxes(couette, 1, 2), 0.0)
         diffusion[:, np.arange(3), np.arange(3)] = 0.0
+        if self.limited is not None:  # each edge keeps 1 - alpha_ij of its diffusion
+            diffusion *= self.limited.factor(pick)[op.positions]
         bases = np.empty((5,) + plus.shape)
         bases[0] = np.einsum("cij,cj->ci", op.local_theta, plus)
         bases[1] = np.einsum("cij,cj->ci", op.local_z, plus)

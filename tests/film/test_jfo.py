@@ -31,7 +31,7 @@ from dolfinx import fem, mesh
 
 from solver.film import reynolds
 from solver.film.cavitation import CavitatingSolver
-from solver.film.jfo import JFOSolver
+from solver.film.jfo import JFOSolver, TransportLimiter
 from solver.film.mesh import TAGS, FilmMeshSpec, film_mesh
 
 pytestmark = pytest.mark.serial
@@ -298,6 +298,97 @@ def test_moving_pocket_conserves_mass_per_step():
     ends_of_cavity = [x[c[-1]] * LENGTH for c in cavities]
     assert ends_of_cavity[0] == pytest.approx(4.2e-3, abs=1e-4)  # the steady cavity: [a, x_r)
     assert np.all(np.diff(ends_of_cavity[1:]) > 0) and ends_of_cavity[-1] > 7e-3
+
+
+# -- 3b. the limited (second-order) transport of the film fraction ------------------------------
+def test_limiter_is_the_flux_limited_scheme_in_1d():
+    """On a uniform interval mesh (U = 1, H = 1) the limiter's alpha of edge (i, i+1) is the TVD flux
+    limiter phi(r) = max(0, min(1, 2 r)) of the upwind to downwind slope ratio, r = (theta_i -
+    theta_i-1) / (theta_i+1 - theta_i) for the flow along +x (upwind node i), and r = (theta_i+1 -
+    theta_i+2) / (theta_i - theta_i+1) for the reversed flow; 0 where the upwind node has no upwind
+    neighbour. Closed form written here from the 1D FE Couette matrix (C_i,i+1 = 1/2 = -C_i+1,i:
+    d = 1/2, low-order coupling 1), to round-off; theta has monotone runs, extrema and a plateau."""
+    n = 24
+    msh = mesh.create_interval(MPI.COMM_SELF, n, [0.0, 1.0])
+    V = fem.FunctionSpace(msh, ("Lagrange", 1))
+    X = V.tabulate_dof_coordinates()[:, 0]
+    order = np.argsort(X)
+    x = X[order]
+    theta_sorted = 0.5 + 0.3 * np.sin(7.0 * x) + 0.05 * np.cos(23.0 * x)
+    theta_sorted[10:13] = theta_sorted[10]  # a plateau: no anti-diffusive flux
+    theta = np.empty(n + 1)
+    theta[order] = theta_sorted
+    with JFOSolver(V, fem.Constant(msh, 1.0), ufl.as_vector((1.0,)), {}) as solver:
+        C = solver.couette
+        limiter = TransportLimiter(*solver.csr_layout())
+        rows, cols = limiter.rows, limiter.cols
+        forward, backward = limiter.alpha(C, theta), limiter.alpha(-C, theta)
+        limited = limiter.limit(C, theta)
+        assert np.array_equal(limited.alpha(limiter.pick(-C)), backward)
+        assert np.array_equal(limited.alpha(limiter.pick(C)), forward)
+    rank = np.empty(n + 1, dtype=int)
+    rank[order] = np.arange(n + 1)
+
+    def phi(up, down):  # down: the slope across the edge, up: the one upwind of it
+        if down == 0.0:
+            return 0.0
+        return max(0.0, min(1.0, 2.0 * up / down))
+
+    t = theta_sorted
+    for k in np.flatnonzero((rows != cols) & (rank[rows] + 1 == rank[cols])):  # entry (i, i+1)
+        i = rank[rows[k]]
+        expected_forward = phi(t[i] - t[i - 1], t[i + 1] - t[i]) if i >= 1 else 0.0
+        expected_backward = phi(t[i + 1] - t[i + 2], t[i] - t[i + 1]) if i + 2 <= n else 0.0
+        assert forward[k] == pytest.approx(expected_forward, abs=1e-12), (i, forward[k], expected_forward)
+        assert backward[k] == pytest.approx(expected_backward, abs=1e-12), (i, backward[k], expected_backward)
+    assert 0.0 < forward.max() <= 1.0 and np.array_equal(forward, forward[limiter.transpose])
+
+
+def _advected(h: float, limited: bool, T: float = math.pi / 2) -> tuple[float, float, float, float]:
+    """theta = 0.5 + 0.2 cos(phi) carried round a thin cylinder (B/R = 0.1, the film mesh at element
+    size h) by U = 1 along the tangent over T, implicit Euler with dT ~ 0.5 h^2 (its error O(h^2)),
+    cavitated throughout (no pressure): (L1 error / area, min theta, max theta, relative change of the
+    stored oil)."""
+    m = film_mesh(FilmMeshSpec(width=0.1, element_size=h), MPI.COMM_SELF)[0]
+    V = fem.FunctionSpace(m, ("Lagrange", 1))
+    x = ufl.SpatialCoordinate(m)
+    r = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
+    X = V.tabulate_dof_coordinates()
+    angle = np.arctan2(X[:, 1], X[:, 0])
+    steps = int(math.ceil(T / (0.5 * h * h)))
+    areas = fem.assemble_vector(fem.form(ufl.TestFunction(V) * ufl.dx)).array
+    with JFOSolver(V, fem.Constant(m, 1.0), ufl.as_vector((-x[1] / r, x[0] / r, 0.0)), {}) as solver:
+        theta = 0.5 + 0.2 * np.cos(angle)
+        solver.u.x.array[:] = theta - 1.0
+        content = solver.m.getArray(readonly=True) * theta
+        stored = content.sum()
+        limiter = TransportLimiter(*solver.csr_layout()) if limited else None
+        for _ in range(steps):
+            if limiter is not None:
+                solver.update(limiter.limit(solver.couette, theta))
+            solution = solver.solve(T / steps, content)
+            content, theta = solution.content, solution.theta
+    error = float(areas @ np.abs(theta - 0.5 - 0.2 * np.cos(angle - T)) / areas.sum())
+    return error, float(theta.min()), float(theta.max()), abs(content.sum() - stored) / stored
+
+
+def test_limited_transport_is_second_order_and_bounded():
+    """The film fraction carried round the bearing's film mesh (``_advected``) at h = 0.2, 0.1, 0.05:
+    upwinding converges with order 1 (L1; measured 0.74, 1.01), the limited transport with order
+    > 1.7 at the finest pair (measured 1.66, 1.84: second order where theta is monotone, first at
+    its two extrema, where the limiter falls back to upwinding) and is > 10 x more accurate at h =
+    0.05 (measured 23 x); it creates no new extremum (theta stays in [0.3, 0.7], the initial range;
+    measured [0.3010, 0.6990]); both keep the stored oil to 1e-12 (the corrections are conservative
+    edge by edge; round-off)."""
+    upwind = np.array([_advected(h, False) for h in (0.2, 0.1, 0.05)])
+    limited = np.array([_advected(h, True) for h in (0.2, 0.1, 0.05)])
+    rate_upwind = np.log2(upwind[:-1, 0] / upwind[1:, 0])
+    rate_limited = np.log2(limited[:-1, 0] / limited[1:, 0])
+    assert rate_upwind[-1] == pytest.approx(1.0, abs=0.15), rate_upwind
+    assert rate_limited[-1] > 1.7, rate_limited
+    assert upwind[-1, 0] > 10.0 * limited[-1, 0]
+    assert limited[:, 1].min() >= 0.3 and limited[:, 2].max() <= 0.7
+    assert max(upwind[:, 3].max(), limited[:, 3].max()) < 1e-12
 
 
 # -- 4. the full-film limit ------------------------------------------------------------------------
