@@ -500,6 +500,8 @@ class FilmModel:
         self._limiter: TransportLimiter | None = None  # the film fraction's limited transport (transport)
         self._limited = None  # its factors for the current committed film fraction (LimitedTransport)
         self._limited_key: tuple | None = None  # (time, film fraction) they were computed from
+        self._upwind_key: tuple | None = None  # the committed state whose solves fell back to upwinding
+        self.transport_fallbacks = 0  # committed states whose step fell back to upwinding (FilmModel.solve)
         if self._jfo is not None:
             is_bc = np.zeros(len(self._owned_coords), dtype=bool)
             for dofs, _ in self._jfo.prescribed.values():
@@ -895,7 +897,21 @@ class FilmModel:
             if self._ehd is not None:
                 self._ehd.rate = self._jfo_rate
         try:
-            result = self._solve(kin, start)
+            try:
+                result = self._solve(kin, start)
+            except FilmNotConverged as err:
+                if self._jfo_derivatives is None or self._jfo_derivatives.limited is None:
+                    raise
+                # the limited transport's matrix is no M-matrix (each edge's downwind entry is +alpha d):
+                # where the storage does not dominate (a closing gap's mdot < 0) semismooth Newton can
+                # cycle. The committed state's step then falls back to upwinding: every solve until the
+                # next commit (a retried step's too), so the integrator sees one residual per step
+                stats.vi_iterations += err.iterations
+                self._upwind_key = self._limited_key
+                self.transport_fallbacks += 1
+                log.debug("JFO film: limited transport did not converge (%s); upwind until the next commit", err)
+                self._limit_transport()
+                result = self._solve(kin, start)
         except FilmNotConverged as err:
             stats.failures += 1
             stats.vi_iterations += err.iterations
@@ -1017,7 +1033,8 @@ class FilmModel:
     def _limit_transport(self) -> None:
         """The limited transport's factors (solver.film.jfo.TransportLimiter) from the last committed film
         fraction before this solve (``_film_fraction_rate`` set it as the fall-back start), computed once
-        per committed state; none (upwind) for a quasi-static solve or with transport 'upwind'."""
+        per committed state; none (upwind) for a quasi-static solve, with transport 'upwind', and for the
+        committed state whose limited solve did not converge (``solve``)."""
         limited = None
         if self._limiter is not None and self._jfo_rate is not None and self._start is not None:
             n = len(self._owned_coords)
@@ -1026,7 +1043,7 @@ class FilmModel:
             if key != self._limited_key:
                 self._limited = self._limiter.limit(self._unit_couette, 1.0 + np.minimum(x_n[:n], 0.0))
                 self._limited_key = key
-            limited = self._limited
+            limited = None if key == self._upwind_key else self._limited
         self._jfo_derivatives.limited = limited
         if self._ehd is not None:
             self._ehd.mid.limited = limited

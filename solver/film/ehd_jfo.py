@@ -8,10 +8,10 @@ the deformed gap H = H_rigid + Phi q of solver.film.ehd, with the bushing's equa
 
 K the Poiseuille matrix (H^3 phi_x, H^3 phi_y), T the conservative Couette transport of the mean gap
 h_T with Kuzmin's upwinding (limited edge by edge when ``MidpointJFO.limited`` is set: solver.film.jfo.
-TransportLimiter, from the last committed film fraction), s the storage in its rate form: m (theta - theta_ref) / dT + mdot theta,
-m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT phi_i), with the deformation's rate inside
-dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by BDF2 through the committed states
-(``theta_ref``, ``dT``; solver.film.bearing). Every coefficient is evaluated at the cell midpoints
+TransportLimiter, from the last committed film fraction), s the storage in its rate form:
+m (theta - theta_ref) / dT + mdot theta, m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT
+phi_i), with the deformation's rate inside dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by
+BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.bearing). Every coefficient is evaluated at the cell midpoints
 (the operator's rule, solver.film.tensors), so the matrices are sums over cells of fixed local
 matrices times these values, and their derivatives with respect to the midpoint gap H_K are as
 cheap. The exact Jacobian::

@@ -35,10 +35,10 @@ OMEGA = 200.0
 ROUGH = PatirCheng(sigma_bushing=0.3e-6, sigma_journal=0.1e-6)
 
 
-def _model(cavitation, *, mesh_size=0.1, p_cav=-0.5e5, roughness=ROUGH, **bearing):
+def _model(cavitation, *, mesh_size=0.1, p_cav=-0.5e5, roughness=ROUGH, transport="limited", **bearing):
     b = Bearing(radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=p_cav, inlet="none", **bearing)
     return FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size, cavitation=cavitation,
-                     roughness=roughness)
+                     roughness=roughness, transport=transport)
 
 
 def _outputs(r) -> np.ndarray:
@@ -103,6 +103,43 @@ def test_jacobian_matches_finite_differences():
             e[k] = step
             column = (outputs(x0 + e) - outputs(x0 - e)) / (2 * step)
             assert np.max(np.abs(J[:, k] - column)) <= 1e-6 * np.max(np.abs(column))
+
+
+def test_limited_transport_falls_back_to_upwind_for_the_step():
+    """A limited solve that does not converge (forced here) is solved again with upwinding, and so is
+    every solve until the next commit (one residual per integrator step, a retried step's too); after
+    the next commit the transport is limited again. Against a model with transport 'upwind' from the
+    same committed state: the same forces and torques to 1e-10 during the fallback, and different by
+    more than 1e-4 after it (the limiter acts on this transient, cavitated film)."""
+    from solver.errors import FilmNotConverged
+
+    kin0 = Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0)
+    states = [Kinematics((5.5e-6, 3.2e-6), (0.01, 0.004), OMEGA, 30.0),
+              Kinematics((5.6e-6, 3.3e-6), (0.012, 0.004), OMEGA, 30.0)]
+    with _model("jfo") as model, _model("jfo", transport="upwind") as upwind:
+        for m in (model, upwind):
+            m.solve(kin0, 0.0)
+            m.commit_deformation(m.deformation_state(), 0.0)
+        real, broken = model._jfo.solve, [True]
+
+        def failing(*args, **kwargs):  # every limited solve fails while ``broken``
+            if broken[0] and model._jfo_derivatives.limited is not None:
+                raise FilmNotConverged("forced", -5, 1)
+            return real(*args, **kwargs)
+
+        model._jfo.solve = failing
+        first = _outputs(model.solve(states[0], 5e-5))
+        assert model.transport_fallbacks == 1
+        assert np.max(np.abs(first - _outputs(upwind.solve(states[0], 5e-5)))) <= 1e-10 * np.max(np.abs(first))
+        broken[0] = False
+        second = _outputs(model.solve(states[1], 5e-5))  # the same step: still upwind
+        assert np.max(np.abs(second - _outputs(upwind.solve(states[1], 5e-5)))) <= 1e-10 * np.max(np.abs(second))
+        for m in (model, upwind):
+            m.commit_deformation(m.deformation_state(), 5e-5)
+        later = [_outputs(m.solve(Kinematics((5.7e-6, 3.4e-6), (0.012, 0.004), OMEGA, 30.0), 1e-4))
+                 for m in (model, upwind)]
+        assert model._jfo_derivatives.limited is not None and model.transport_fallbacks == 1
+        assert np.max(np.abs(later[0] - later[1])) > 1e-4 * np.max(np.abs(later[1]))
 
 
 def test_steady_supply_flow_equals_side_flow():

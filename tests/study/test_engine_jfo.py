@@ -79,14 +79,15 @@ def test_the_film_keeps_its_oil_over_the_cycle(jfo_run):
 @pytest.mark.serial
 def test_the_energy_audit_closes_on_the_coarse_jfo_cycle(jfo_run):
     """The results' energy audit of the last cycle within 1 % of the dissipated energy (the issue's
-    target for the JFO engine; measured -0.70 % on these 2 deg outputs, -0.02 to -0.15 % at the
-    default resolution, README). The pin crosses its clearance in a fraction of a degree here: Simpson's
-    rule on the outputs' powers, the older measure, is off by more than 10 % (measured +41 %), so the
+    target for the JFO engine; measured -0.86 % on these 2 deg outputs with the limited transport,
+    -0.70 % with upwinding; -0.02 to -0.18 % at the default resolution, README). The pin crosses its
+    clearance in a fraction of a degree here: Simpson's rule on the outputs' powers, the older
+    measure, is off by more than 5 x that target (measured -9.6 %; +41 % with upwinding), so the
     audit's driver work from the crank's momentum is what closes it."""
     _, ds, _, _ = jfo_run
     audit, outputs = energy_balance(ds)
     assert abs(audit) < 0.01, audit
-    assert abs(outputs) > 0.10, outputs
+    assert abs(outputs) > 0.05, outputs
 
 
 @pytest.mark.serial
@@ -139,7 +140,7 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
     the bushing deforming by micrometres at firing, the film ruptured over part of the bushing and its
     oil balance from results.nc within 3 % of the side flow's integral (the coarse rigid cycle: 0.8 %
     at 1 deg; this one's first cycle starts from a centred pin and a full film); the energy audit
-    within 1 % of the dissipated energy (measured -0.17 %; the outputs' Simpson: +22 %)."""
+    within 1 % of the dissipated energy (measured -0.27 %; the outputs' Simpson: +20 %)."""
     case = make_case(tmp_path / "winkler-jfo", "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\n"
                                                "field_angles_deg = []\n")
     toml = case / "case.toml"
