@@ -42,7 +42,7 @@ from dolfinx import fem
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import configured_snes
 from solver.film.ehd import ElasticFilm, _DampedLU
-from solver.film.jfo import JFOSolution, semismooth_reason
+from solver.film.jfo import JFOSolution, semismooth_reason, upwind_pick
 from solver.film.tensors import MIDPOINT
 
 log = logging.getLogger(__name__)
@@ -107,7 +107,7 @@ class MidpointJFO:
         sides (ties: the one in the lower row); with ``limited`` scaled edge by edge by 1 - alpha_ij
         (constant at a state: the limiter's film fraction is a committed one)."""
         Ct = C[self.transpose]
-        pick_self = (C > Ct) | ((C == Ct) & (self.rows < self.op.indices))
+        pick_self = upwind_pick(C, Ct, self.rows, self.op.indices)
         d = np.where(self.off, np.maximum(0.0, np.where(pick_self, C, Ct)), 0.0)
         if self.limited is not None:
             d = d * self.limited.factor(pick_self)

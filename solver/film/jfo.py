@@ -210,7 +210,7 @@ class JFOSolver:
             A.zeroEntries()
             fem_petsc.assemble_matrix(A, form)
             A.assemble()
-        self.couette = self.T.getValuesCSR()[2].copy()  # before upwinding (a limiter's orientation)
+        self.couette = self.T.getValuesCSR()[2]  # before upwinding (a limiter's orientation; a new array)
         _upwind(self.T, limited)
         for vec, form in ((self.m, self._m_form), (self.mdot, self._rate_form)):
             if form is None:
@@ -225,7 +225,7 @@ class JFOSolver:
         """``update`` from values computed elsewhere (serial): K's and the Couette matrix's values in
         their CSR layout (``csr_layout``; C before upwinding), m and mdot at the dofs. The bearing film
         computes them at the cell midpoints (solver.film.ehd_jfo.MidpointJFO), the forms' own rule."""
-        self.couette = np.asarray(C_values, dtype=float).copy()
+        self.couette = C_values  # before upwinding (the caller's array, not written to)
         indptr, indices = self.csr_layout()
         self.K.setValuesCSR(indptr, indices, K_values)
         self.K.assemble()
@@ -454,7 +454,7 @@ def _upwind(C: PETSc.Mat, limited: LimitedTransport | None = None) -> None:
     if limited is not None:
         if C.getComm().getSize() != 1:
             raise ValueError("the limited film-fraction transport is serial")
-        d = d * limited.factor(_upwind_pick(values, values_t, rows, cols))
+        d = d * limited.factor(upwind_pick(values, values_t, rows, cols))
     upwinded = values - d
     row_sums = np.add.reduceat(d, indptr[:-1]) if len(d) else np.zeros(0)
     row_sums[np.diff(indptr) == 0] = 0.0
@@ -464,9 +464,10 @@ def _upwind(C: PETSc.Mat, limited: LimitedTransport | None = None) -> None:
     Ct.destroy()
 
 
-def _upwind_pick(C: np.ndarray, Ct: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+def upwind_pick(C: np.ndarray, Ct: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Per CSR entry (i, j): True when d_ij = max(0, C_ij, C_ji) follows C_ij, i.e. node i is the upwind
-    node of the edge (C_ij >= C_ji; ties: the lower row), as solver.film.ehd_jfo.MidpointJFO.upwinded."""
+    node of the edge (C_ij >= C_ji; ties: the lower row). Shared by ``_upwind``, TransportLimiter and
+    solver.film.ehd_jfo.MidpointJFO.upwinded."""
     return (C > Ct) | ((C == Ct) & (rows < cols))
 
 
@@ -478,7 +479,7 @@ class LimitedTransport:
 
     alpha_forward: np.ndarray  # per CSR entry, for the orientation of ``pick_forward``
     alpha_backward: np.ndarray  # for the reversed flow
-    pick_forward: np.ndarray  # the upwind pick (_upwind_pick) of the forward orientation
+    pick_forward: np.ndarray  # the upwind pick (``upwind_pick``) of the forward orientation
 
     def alpha(self, pick: np.ndarray) -> np.ndarray:
         """alpha per CSR entry for a Couette matrix whose upwind pick is ``pick``."""
@@ -527,15 +528,15 @@ class TransportLimiter:
         self.n = n
 
     def pick(self, C: np.ndarray) -> np.ndarray:
-        """The upwind pick (_upwind_pick) of the Couette matrix's CSR values C."""
-        return _upwind_pick(C, C[self.transpose], self.rows, self.cols)
+        """The upwind pick (``upwind_pick``) of the Couette matrix's CSR values C."""
+        return upwind_pick(C, C[self.transpose], self.rows, self.cols)
 
     def alpha(self, C: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """alpha_ij in [0, 1] per CSR entry (symmetric; 0 on the diagonal) for the Couette matrix's CSR
         values C (before upwinding, residual convention) and the film fraction theta at the nodes."""
         rows, cols, n = self.rows, self.cols, self.n
         Ct = C[self.transpose]
-        upwind = _upwind_pick(C, Ct, rows, cols)
+        upwind = upwind_pick(C, Ct, rows, cols)
         d = np.where(self.off, np.maximum(0.0, np.where(upwind, C, Ct)), 0.0)
         slope = theta[rows] - theta[cols]  # theta_i - theta_j at entry (i, j)
         own = self.off & upwind & (d > 0.0)  # i is the edge's upwind node: it limits the edge
