@@ -205,7 +205,8 @@ class ElasticJFOFilm(ElasticFilm):
         P = self.lower + plus
         self.P.x.array[:n] = P
         self.W.x.array[:] = self.Phi @ q
-        self.k = self.expression.eval(op.cells)  # the asperity pressure and its slope (columns 4, 5)
+        # the asperity pressure and its slope (columns 4, 5 of the derivatives, after the operator's coefficients)
+        self.k = self.expression.eval(op.cells)[:, len(op.coefficients):]
         c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
         self.c = c
         K = scipy.sparse.csr_matrix((op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n))

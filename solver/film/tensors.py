@@ -93,7 +93,9 @@ class MidpointOperator:
         self.T_f = scipy.sparse.csr_matrix((np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))),
                                            shape=(n_dofs, n_cells))
         self.integrands = list(integrals)  # (the mass-conserving film evaluates them with its own coefficients)
-        self.expression = fem.Expression(ufl.as_vector(list(coefficients) + self.integrands), MIDPOINT)
+        #: what ``evaluate`` needs at the midpoints (UFL): k_theta, k_z, f, then the integrands
+        self.coefficients = list(coefficients) + self.integrands
+        self.expression = fem.Expression(ufl.as_vector(self.coefficients), MIDPOINT)
         #: evaluates what ``expression`` does in numpy when set (RigidMidpointCoefficients)
         self.fast = None
         self.weight = weight  # |K|: the midpoint rule's weight of each cell
@@ -127,11 +129,13 @@ class MidpointOperator:
         A.assemble()
         rhs.setArray(self.source)
 
-    def evaluate(self) -> None:
+    def evaluate(self, k: np.ndarray | None = None) -> None:
         """``values`` (A's, in its CSR layout) and ``source`` for the current constants, without PETSc
-        (the elastic film, solver.film.ehd, works on them directly)."""
+        (the elastic film, solver.film.ehd, works on them directly). ``k``: the ``coefficients`` at the
+        midpoints when the caller has evaluated them (the elastic film, in one kernel with its own)."""
         # (cell, 3 + integrals): k_theta, k_z, f, ... at the midpoints
-        k = self.expression.eval(self.cells) if self.fast is None else self.fast()
+        if k is None:
+            k = self.expression.eval(self.cells) if self.fast is None else self.fast()
         self.integrals = self.weight @ k[:, 3:]
         values = self.T_theta @ k[:, 0] + self.T_z @ k[:, 1]
         source = self.T_f @ k[:, 2]
