@@ -173,17 +173,11 @@ class ElasticFilm:
         self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
         self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
         if self.dense:
-            self._average_Phi, self._slope_Phi = self.average_Phi.toarray(), self.slope_Phi.toarray()
+            self._average_Phi = self.average_Phi.toarray()
             self._J_qP = self.J_qP.toarray()
             self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
-            # dR_P/dq = [dH, dslope] @ [dW_K/dq; dW'_K/dq]: one sparse (n x 2 cells) @ dense product, its
-            # CSR structure fixed (each cell's 3 vertices, twice): the values are permuted into it
-            n_cells = len(cells)
-            rows = np.concatenate([op.dofs.ravel(), op.dofs.ravel()])
-            cols = np.concatenate([c3, c3 + n_cells])
-            order = scipy.sparse.csr_matrix((np.arange(1.0, len(rows) + 1.0), (rows, cols)), shape=(n, 2 * n_cells))
-            self._border = (order.indices, order.indptr, order.data.astype(np.int64) - 1, (n, 2 * n_cells))
-            self._stacked_Phi = np.vstack([self._average_Phi, self._slope_Phi])
+            self._border = self._border_map(op, n)
+            self._Phi = self.Phi.toarray()
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
@@ -229,6 +223,31 @@ class ElasticFilm:
         self._state: np.ndarray | None = None  # the x of the cached evaluation (and its residual, _r)
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _scatter's lookup
         self.iterations = 0
+
+    @staticmethod
+    def _border_map(op: MidpointOperator, n: int) -> tuple:
+        """dR_P/dq = M Phi with M = [dH, dslope] [average; slope] (n x n): the cells' derivatives of
+        A_K P_K + l_K with respect to the midpoint gap and slope, times the midpoint value and slope of a
+        P1 field. M has the film's nearest-neighbour pattern and its values are a fixed linear map of
+        the cells' derivatives (``local`` and ``slopes`` of jacobian_blocks, concatenated): returns
+        (map, M's indices, M's indptr). M Phi reads the n x m shapes once (the product of the n x 2 cells
+        derivatives with the 2 cells x m midpoint shapes read 3.7 x as much: 0.43 ms against ~0.2 ms
+        per Jacobian in the engine cycle)."""
+        n_cells = len(op.cells)
+        # the derivative entries, in the order of the concatenated values: (row, cell, kind) with kind 0 the
+        # gap's (its P1 midpoint value: 1/3 at each vertex) and 1 the slope's (g_theta at each vertex)
+        rows = np.concatenate([op.dofs.ravel(), op.dofs.ravel()])
+        cell = np.tile(np.repeat(op.cells, 3), 2)
+        weights = np.concatenate([np.full((3 * n_cells, 3), 1.0 / 3.0), np.repeat(op.g_theta, 3, axis=0)])
+        I = np.repeat(rows, 3)
+        J = op.dofs[cell].ravel()
+        source = np.repeat(np.arange(len(rows)), 3)
+        keys = np.unique(I.astype(np.int64) * n + J)
+        position = np.searchsorted(keys, I.astype(np.int64) * n + J)
+        mapping = scipy.sparse.csr_matrix((weights.ravel(), (position, source)), shape=(len(keys), len(rows)))
+        indices = (keys % n).astype(np.int32)
+        indptr = np.searchsorted(keys // n, np.arange(n + 1)).astype(np.int32)
+        return mapping, indices, indptr
 
     def _whole_lu(self) -> FixedPatternLU:
         lu = FixedPatternLU(self)
@@ -309,10 +328,9 @@ class ElasticFilm:
         n_cells = len(op.cells)
         slopes = np.repeat(k[:, 3] * op.weight / 3.0, 3)
         if self.dense:  # the same blocks as dense arrays (module docstring)
-            indices, indptr, position, shape = self._border
-            values = np.concatenate([local.ravel(), slopes])[position]
-            border = scipy.sparse.csr_matrix((values, indices, indptr), shape=shape)
-            J_Pq = self.interior[:, None] * (border @ self._stacked_Phi)
+            mapping, indices, indptr = self._border
+            M = scipy.sparse.csr_matrix((mapping @ np.concatenate([local.ravel(), slopes]), indices, indptr), shape=(n, n))
+            J_Pq = self.interior[:, None] * (M @ self._Phi)
             touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
             J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (k[touching, 5, None] * self._average_Phi[touching])
             J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
