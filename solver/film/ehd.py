@@ -397,6 +397,13 @@ class ElasticFilm:
         return factor
 
     # -- solve ----------------------------------------------------------------------------------
+    #: the coupled residual at which a solve has converged, relative to the film's source (or the
+    #: deformation's residual at the start, if larger). In the elastic engine cycle 1e-8 moves min
+    #: h_min, max p_max and the mean friction power by < 1e-8 of themselves against 1e-11 (100 x below
+    #: the integrator's rtol) and takes 23 % fewer Newton iterations (13414 against 17446 per cycle):
+    #: from a warm start the first iteration leaves ~1e-6 of the source (median), the second ~1e-12
+    TOLERANCE = 1e-8
+
     def solve(self) -> int:
         """Solve the coupled VI from the last (P, q); returns the Newton iterations."""
         n = self.n
@@ -406,7 +413,7 @@ class ElasticFilm:
         x0 = np.concatenate([P0, self.q])
         r0 = self.residual(x0)
         scale = max(np.linalg.norm(self.op.source), np.linalg.norm(r0[n:]), 1e-3)
-        atol = max(1e-11 * scale, 1e-14)
+        atol = max(self.TOLERANCE * scale, 1e-14)
         self.snes.setTolerances(atol=atol, rtol=self._rtol, stol=0.0)
         self.lu.inactive = None
         self.iterations = 0

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from solver.film.bearing import Bearing, FilmModel, Kinematics
-from solver.film.ehd import WinklerLayer
+from solver.film.ehd import ElasticFilm, WinklerLayer
 from solver.film.surface import Surface
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
@@ -118,6 +118,31 @@ def test_very_stiff_bushing_gives_the_rigid_film():
         assert np.allclose(getattr(elastic, name), getattr(rigid, name), rtol=0, atol=1e-6 * rigid.load), name
     for name in ("torque_journal", "torque_bushing", "p_max", "h_min"):
         assert getattr(elastic, name) == pytest.approx(getattr(rigid, name), rel=1e-6), name
+
+
+@pytest.mark.serial
+def test_the_solve_tolerance_leaves_forces_and_torques_unchanged(monkeypatch):
+    """ElasticFilm.TOLERANCE (the coupled residual at which a solve stops, 1e-8 of the film's source)
+    against a solve to 1e-13 from the same warm start (the mixed state, from a neighbour 1e-5 c and
+    1e-3 rad away): the default stops an iteration earlier (quadratic Newton: its last step is the one
+    the tighter tolerance adds), and the forces and torque agree to 1e-6 of themselves (the residual
+    left is 1e-8 of the source times the film's conditioning: 3e-8 measured)."""
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    neighbour = Kinematics((0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)), MIXED.ecc_rate,
+                           MIXED.omega_journal, MIXED.omega_bushing)
+    target = Kinematics((0.97001 * C * math.cos(-1.399), 0.97001 * C * math.sin(-1.399)), MIXED.ecc_rate,
+                        MIXED.omega_journal, MIXED.omega_bushing)
+    out = {}
+    for tolerance in (ElasticFilm.TOLERANCE, 1e-13):
+        monkeypatch.setattr(ElasticFilm, "TOLERANCE", tolerance)
+        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE),
+                       **_rough()) as model:
+            model.solve(neighbour)
+            out[tolerance] = model.solve(target)
+    default, tight = out.values()
+    assert default.iterations < tight.iterations
+    assert np.allclose(default.force, tight.force, rtol=0, atol=1e-6 * tight.load)
+    assert default.torque_journal == pytest.approx(tight.torque_journal, rel=1e-6)
 
 
 @pytest.mark.serial
