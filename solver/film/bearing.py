@@ -317,6 +317,7 @@ class FilmStats:
     vi_iterations: int = 0  # SNES VI (Newton) iterations of all solves
     failures: int = 0  # solves that did not converge
     jacobians: int = 0
+    transport_fallbacks: int = 0  # JFO, limited transport: committed states whose step fell back to upwinding
     solve_seconds: float = 0.0  # assembly, VI and functionals
     jacobian_seconds: float = 0.0  # sensitivities and their functionals
 
@@ -501,7 +502,6 @@ class FilmModel:
         self._limited = None  # its factors for the current committed film fraction (LimitedTransport)
         self._limited_key: tuple | None = None  # (time, film fraction) they were computed from
         self._upwind_key: tuple | None = None  # the committed state whose solves fell back to upwinding
-        self.transport_fallbacks = 0  # committed states whose step fell back to upwinding (FilmModel.solve)
         if self._jfo is not None:
             is_bc = np.zeros(len(self._owned_coords), dtype=bool)
             for dofs, _ in self._jfo.prescribed.values():
@@ -908,7 +908,7 @@ class FilmModel:
                 # next commit (a retried step's too), so the integrator sees one residual per step
                 stats.vi_iterations += err.iterations
                 self._upwind_key = self._limited_key
-                self.transport_fallbacks += 1
+                stats.transport_fallbacks += 1
                 log.debug("JFO film: limited transport did not converge (%s); upwind until the next commit", err)
                 self._limit_transport()
                 result = self._solve(kin, start)

@@ -108,6 +108,8 @@ TIMING: dict[str, str] = {
     "film_jacobians": "film Jacobians (sensitivities with the converged active set)",
     "steps": "accepted integrator steps",
     "rejected_steps": "rejected integrator step attempts (error test or Newton failure)",
+    "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to upwinding "
+                           "(its limited solve did not converge)",
     "film_solve_s": "seconds in film solves",
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",

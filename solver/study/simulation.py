@@ -225,6 +225,7 @@ class _Run:
             timing.update(film_solves=now.solves - film_before.solves,
                           vi_iterations=now.vi_iterations - film_before.vi_iterations,
                           film_jacobians=now.jacobians - film_before.jacobians,
+                          transport_fallbacks=now.transport_fallbacks - film_before.transport_fallbacks,
                           film_solve_s=now.solve_seconds - film_before.solve_seconds,
                           film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds)
             timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
@@ -532,7 +533,8 @@ def describe_timing(timing: dict[str, float]) -> str:
     return (f"{t['wall_s']:.1f} s; {t['film_solves']:.0f} film solves ({t['vi_iterations']:.0f} VI iterations) "
             f"{t['film_solve_s']:.1f} s, {t['film_jacobians']:.0f} film Jacobians {t['film_jacobian_s']:.1f} s, "
             f"{t['steps']:.0f} steps ({t['rejected_steps']:.0f} rejected), multibody/integrator "
-            f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s")
+            f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s"
+            + (f"; {t['transport_fallbacks']:.0f} steps fell back to the upwind transport" if t.get("transport_fallbacks") else ""))
 
 
 def _ideal_cycle_output(ideal) -> CycleOutput:

@@ -129,7 +129,7 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
 
         model._jfo.solve = failing
         first = _outputs(model.solve(states[0], 5e-5))
-        assert model.transport_fallbacks == 1
+        assert model.stats.transport_fallbacks == 1
         assert np.max(np.abs(first - _outputs(upwind.solve(states[0], 5e-5)))) <= 1e-10 * np.max(np.abs(first))
         broken[0] = False
         second = _outputs(model.solve(states[1], 5e-5))  # the same step: still upwind
@@ -138,7 +138,7 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
             m.commit_deformation(m.deformation_state(), 5e-5)
         later = [_outputs(m.solve(Kinematics((5.7e-6, 3.4e-6), (0.012, 0.004), OMEGA, 30.0), 1e-4))
                  for m in (model, upwind)]
-        assert model._jfo_derivatives.limited is not None and model.transport_fallbacks == 1
+        assert model._jfo_derivatives.limited is not None and model.stats.transport_fallbacks == 1
         assert np.max(np.abs(later[0] - later[1])) > 1e-4 * np.max(np.abs(later[1]))
 
 

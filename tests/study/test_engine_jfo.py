@@ -77,6 +77,21 @@ def test_the_film_keeps_its_oil_over_the_cycle(jfo_run):
 
 
 @pytest.mark.serial
+def test_the_results_count_the_steps_that_fell_back_to_upwinding(jfo_run):
+    """timing.transport_fallbacks: one whole count per computed cycle (the limited transport is the
+    default), and run.log's cycle line names it exactly when it is not zero."""
+    _, ds, case, _ = jfo_run
+    assert ds.attrs["solver.film_fraction_transport"] == "limited"
+    counts = np.atleast_1d(ds.attrs["timing.transport_fallbacks"])
+    assert len(counts) == int(ds.attrs["cycles"])
+    assert np.all(np.isfinite(counts)) and np.all(counts >= 0) and np.all(counts == np.round(counts))
+    lines = [row for row in (case / "results" / "run.log").read_text().splitlines() if "film solves" in row]
+    assert len(lines) == len(counts)
+    for line, count in zip(lines, counts):
+        assert (f"; {count:.0f} steps fell back to the upwind transport" in line) == (count > 0)
+
+
+@pytest.mark.serial
 def test_the_energy_audit_closes_on_the_coarse_jfo_cycle(jfo_run):
     """The results' energy audit of the last cycle within 1 % of the dissipated energy (the issue's
     target for the JFO engine; measured -0.86 % on these 2 deg outputs with the limited transport,
