@@ -223,6 +223,7 @@ class ElasticFilm:
         self._state: np.ndarray | None = None  # the x of the cached evaluation (and its residual, _r)
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _scatter's lookup
         self.iterations = 0
+        self._factored_state: np.ndarray | None = None  # the solution the sensitivities' factorisation is at
 
     @staticmethod
     def _border_map(op: MidpointOperator, n: int) -> tuple:
@@ -478,9 +479,11 @@ class ElasticFilm:
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
         """d(P, q)/dtheta = -J_II^-1 dR/dtheta on the inactive set (active set frozen), 0 elsewhere.
 
-        One factorisation per solution: the Jacobian is reassembled first (the semismooth method
-        leaves its own modified matrix in A)."""
-        if self.lu.inactive is None:
+        The Jacobian is evaluated and factorised at the solution (once per solution): the last Newton
+        iteration's factorisation is at the iterate before it (from a warm start that converges in one
+        iteration, the start), and the semismooth method leaves its own modified matrix in A."""
+        if self.lu.inactive is None or self._factored_state is not self._state:
+            self._factored_state = self._state
             inactive = self.inactive_set()
             if isinstance(self.lu, SchurLU):
                 self._blocks_only(None, self.x, None, None)
