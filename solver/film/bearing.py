@@ -475,7 +475,7 @@ class FilmModel:
                                        lower=self._reduced(bearing.cavitation_pressure) / self.scales.pressure,
                                        options=options)
         self._operator = None
-        self._pressure_torque = None  # PressureTorque: serial, P1, rigid
+        self._pressure_torque = None  # PressureTorque: serial, P1
         if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
             coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
             names = list(self._midpoint_integrands)
@@ -488,10 +488,10 @@ class FilmModel:
                 self._operator.fast = RigidMidpointCoefficients(self._operator, self.params, self.roughness, names)
             self.solver.assembler = self._operator.assemble
             self.solver.update()
-            if elastic is None:
-                # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
-                self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value))
-                self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(_PRESSURE_TORQUES)]
+            # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
+            self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value),
+                                                   flow_floor=None if elastic is None else floor)
+            self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(_PRESSURE_TORQUES)]
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         # the mass-conserving film (with an elastic bushing: the kinematic sensitivities of its residual)
@@ -1158,7 +1158,8 @@ class FilmModel:
         if self._pressure_torque is not None:
             n = self._pressure_torque.B.shape[1]
             value = self._pressure_torque(self.pressure.x.array[:n], float(self.params.eps_x.value),
-                                          float(self.params.eps_y.value))
+                                          float(self.params.eps_y.value),
+                                          None if self.W is None else self.W.x.array[:n])
             raw.update(dict.fromkeys(_PRESSURE_TORQUES, value))
         for names, functionals in self._scalars:
             raw.update(zip(names, self._integrate(functionals)))

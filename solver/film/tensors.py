@@ -159,18 +159,22 @@ class PressureTorque:
     ``H_q = 1 - eps_x cos(theta_q) - eps_y sin(theta_q)`` with cos and sin taken as x/r and y/r at the
     point, as the form does. The roughness law is evaluated with numpy (``mod=np``: the same
     expression as the form's); a test checks the result against dolfinx's evaluation of the UFL
-    integrand to 1e-12. Rigid bushing only (an elastic one adds its deformation to H).
+    integrand to 1e-12. An elastic bushing adds its deformation W (P1, interpolated at the points by
+    the fixed matrix ``interpolation``) to H, and the flow sees H floored as the forms do
+    (solver.film.reynolds.FilmGeometry): ``-Phi_fp(H/S) 6 H_flow dP/dtheta``.
 
     Args:
         V: the P1 pressure space (serial mesh).
         roughness: the Patir-Cheng factors (solver.film.flow_factors.PatirCheng), or None (smooth:
             Phi_fp = 1).
         S: sigma / c.
+        flow_floor: the elastic film's floor of H in the flow (FilmGeometry's ``flow_floor``); None for
+            a rigid bushing.
     """
 
     DEGREE = 2
 
-    def __init__(self, V: fem.FunctionSpace, roughness, S: float):
+    def __init__(self, V: fem.FunctionSpace, roughness, S: float, flow_floor: float | None = None):
         points, weights = basix.make_quadrature(basix.CellType.triangle, self.DEGREE)
         dofs, X, J, G, area = _cell_geometry(V, "PressureTorque")
         n_cells = len(dofs)
@@ -184,19 +188,29 @@ class PressureTorque:
         n_points = n_cells * len(weights)
         rows = np.repeat(np.arange(n_points), 3)
         cols = np.repeat(dofs, len(weights), axis=0).ravel()
-        self.B = scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n_points, V.dofmap.index_map.size_local))
-        self.roughness, self.S = roughness, S
+        n_dofs = V.dofmap.index_map.size_local
+        self.B = scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n_points, n_dofs))
+        basis = np.column_stack([1.0 - points[:, 0] - points[:, 1], points[:, 0], points[:, 1]])  # (q, vertex)
+        self.interpolation = scipy.sparse.csr_matrix((np.tile(basis.ravel(), n_cells), (rows, cols)),
+                                                     shape=(n_points, n_dofs))  # P1 values at the points
+        self.roughness, self.S, self.flow_floor = roughness, S, flow_floor
 
-    def coefficient(self, eps_x: float, eps_y: float) -> np.ndarray:
-        """c = -6 Phi_fp(H/S) H at the points."""
+    def coefficient(self, eps_x: float, eps_y: float, W: np.ndarray | None = None) -> np.ndarray:
+        """c = -6 Phi_fp(H/S) H_flow at the points (H_flow = H on a rigid bushing)."""
         H = 1.0 - eps_x * self.cos - eps_y * self.sin
+        H_flow = H
+        if W is not None:
+            H = H + self.interpolation @ W
+            h0 = self.flow_floor
+            H_flow = np.where(H < h0, h0 * np.exp(np.minimum(H, h0) / h0 - 1.0), H)
         if self.roughness is None:
-            return -6.0 * H
-        return -6.0 * self.roughness.pressure_shear_factor(H / self.S, mod=np) * H
+            return -6.0 * H_flow
+        return -6.0 * self.roughness.pressure_shear_factor(H / self.S, mod=np) * H_flow
 
-    def __call__(self, P: np.ndarray, eps_x: float, eps_y: float) -> float:
-        """The integral of ``-Phi_fp 6 H dP/dtheta`` over the mesh for the nodal values P."""
-        return float(self.coefficient(eps_x, eps_y) @ (self.B @ P))
+    def __call__(self, P: np.ndarray, eps_x: float, eps_y: float, W: np.ndarray | None = None) -> float:
+        """The integral of ``-Phi_fp 6 H_flow dP/dtheta`` over the mesh for the nodal values P (and the
+        deformation W of an elastic bushing)."""
+        return float(self.coefficient(eps_x, eps_y, W) @ (self.B @ P))
 
 
 class RigidMidpointCoefficients:

@@ -142,17 +142,21 @@ def test_warm_start_turned_with_a_jumping_frame_saves_vi_iterations():
     assert counts[True] < counts[False]
 
 
-@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
-def test_pressure_torque_equals_the_quadrature_of_the_form(rough):
+@pytest.mark.parametrize("rough, elastic", [(False, False), (True, False), (False, True), (True, True)],
+                         ids=["smooth", "rough", "smooth-elastic", "rough-elastic"])
+def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
     """The pressure part of the viscous torque from PressureTorque and from the UFL integrand evaluated by
     dolfinx (solver.film.bearing.QuadratureFunctionals, the rule the forms use) at three solved states:
-    equal to 1e-12 of its size, and not zero."""
+    equal to 1e-12 of its size, and not zero. With an elastic (Winkler) bushing the gap carries the
+    deformation, which is not small there, and the flow's floor of the gap."""
     from solver.film.bearing import _PRESSURE_TORQUES, QuadratureFunctionals
+    from solver.film.ehd import WinklerLayer
     from solver.film.reynolds import shear_traction_integrands
 
-    with _model(rough, False) as model:
+    bushing = WinklerLayer(thickness=1.5e-3, E=5e9, nu=0.33) if elastic else None  # a polymer layer: W ~ 0.1
+    with _model(rough, False, elastic=bushing) as model:
         torque = model._pressure_torque
-        assert torque is not None  # serial, P1, rigid: the default
+        assert torque is not None  # serial, P1: the default
         _, _, pressure_part = shear_traction_integrands(model.pressure, model.geometry, model.roughness)
         reference = QuadratureFunctionals(model.mesh, [pressure_part], torque.DEGREE)
         for e, angle, rate in [(0.3, 0.5, 0.0), (0.93, 2.0, 0.4), (0.98, 4.5, -1.0)]:
@@ -160,7 +164,10 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough):
             model.solve(state)
             n = torque.B.shape[1]
             eps = float(model.params.eps_x.value), float(model.params.eps_y.value)
-            fast = torque(model.pressure.x.array[:n], *eps)
+            W = model.W.x.array[:n] if elastic else None
+            if elastic:
+                assert np.max(np.abs(W)) > 0.01
+            fast = torque(model.pressure.x.array[:n], *eps, W)
             exact = float(reference()[0])
             assert abs(exact) > 1e-3
             assert abs(fast - exact) <= 1e-12 * abs(exact), (e, fast, exact)
@@ -168,6 +175,15 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough):
             whole = model.mesh_spec.multiplicity * model.scales.shear_torque
             for name in _PRESSURE_TORQUES:
                 assert values[name] == pytest.approx(whole * fast, rel=1e-14)
+        if elastic:  # a deformation that closes the gap below the flow's floor over part of the film
+            h0, coords = torque.flow_floor, model._owned_coords
+            rigid = 1.0 - coords[:, :2] @ np.array(eps)
+            gap = h0 * (0.2 + 2.0 * np.random.default_rng(3).random(n))
+            model.W.x.array[:n] = gap - rigid
+            assert 0.2 < np.mean(gap < h0) < 0.8
+            fast = torque(model.pressure.x.array[:n], *eps, model.W.x.array[:n])
+            exact = float(reference()[0])
+            assert abs(fast - exact) <= 1e-12 * abs(exact), (fast, exact)
 
 
 @pytest.mark.parametrize("state", [STATE, DEEP], ids=["eps0.93", "eps0.995"])
