@@ -168,6 +168,9 @@ class ElasticFilm:
         # arrays (a sparse-sparse product with a dense result costs ~10 x more)
         self.dense = m < n
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
+        # W = Phi q and Phi^T F in the residual and the step limit: a dense array with a few modes (a
+        # CSR matrix of its n m entries multiplies ~3 x slower)
+        self._Phi = self.Phi.toarray() if self.dense else self.Phi
         self.interior = np.ones(n)
         self.interior[op.bc_dofs] = 0.0
         self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
@@ -177,7 +180,6 @@ class ElasticFilm:
             self._J_qP = self.J_qP.toarray()
             self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
             self._border = self._border_map(op, n)
-            self._Phi = self.Phi.toarray()
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
@@ -279,14 +281,14 @@ class ElasticFilm:
         n = self.n
         P, q = x[:n], x[n:]
         self.P.x.array[:n] = P
-        self.W.x.array[:] = self.Phi @ q
+        self.W.x.array[:] = self._Phi @ q
         op = self.op
         self.k = self.midpoint_values()  # (cell, 6) at the midpoints
         self._A = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))  # A(H), dR_P/dP
         R_P = self._A @ P + op.source
         p, self.slope = (P, None) if self.pressure_map is None else self.pressure_map(P)
         F = self.areas * p + self.to_nodes @ self.k[:, 4]
-        R_q = q - self.gains * (self.Phi.T @ F)
+        R_q = q - self.gains * (self._Phi.T @ F)
         self._state = x.copy()
         self._r = np.concatenate([R_P, R_q])
         return self._r
@@ -382,7 +384,7 @@ class ElasticFilm:
         most MAX_GAP_CLOSURE of the gap where it is open wider than the flow floor's scale (so the iterates
         do not jump across the contact), and with piezoviscosity at most half the way from the reduced
         pressure to its bound."""
-        dW = -(self.Phi @ step[self.n :])
+        dW = -(self._Phi @ step[self.n :])
         largest = float(np.max(np.abs(dW), initial=0.0))
         factor = min(1.0, self.MAX_THICKNESS_STEP / largest) if largest > 0 else 1.0
         H = self.rigid_gap + self.W.x.array[: self.n]
