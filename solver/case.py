@@ -200,8 +200,9 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("small_end", "elastic", "elastic", str, "none", choices=("none", "winkler", "fe"),
               doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
                   "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-                  "eye and bushing, cached on disk); needs inlet none, hole or a groove. An engine cycle costs 5-15 times "
-                  "the rigid one (see the README's benchmarks)"),
+                  "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an engine cycle "
+                  "costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are nodal: one LU of "
+                  "the whole coupled matrix; see the README's benchmarks)"),
     _f("small_end", "bushing_thickness_mm", "bushing_thickness", 1.5, 1e-3, 0.0, unit="mm",
        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)"),
     _f("small_end", "eye_outer_radius_mm", "eye_outer_radius", 17.0, 1e-3, 0.0, unit="mm",
