@@ -233,9 +233,9 @@ class ElasticFilm:
         A_K P_K + l_K with respect to the midpoint gap and slope, times the midpoint value and slope of a
         P1 field. M has the film's nearest-neighbour pattern and its values are a fixed linear map of
         the cells' derivatives (``local`` and ``slopes`` of jacobian_blocks, concatenated): returns
-        (map, M's indices, M's indptr). M Phi reads the n x m shapes once (the product of the n x 2 cells
-        derivatives with the 2 cells x m midpoint shapes read 3.7 x as much: 0.43 ms against ~0.2 ms
-        per Jacobian in the engine cycle)."""
+        (map, M's indices, M's indptr). M Phi reads the n x m shapes once; the product of the n x 2 cells
+        derivatives with the 2 cells x m midpoint shapes it replaces read 3.7 x as much memory (0.43 ms a
+        Jacobian in the engine cycle; a 40 deg window after firing 28.4 -> 27.3 s)."""
         n_cells = len(op.cells)
         # the derivative entries, in the order of the concatenated values: (row, cell, kind) with kind 0 the
         # gap's (its P1 midpoint value: 1/3 at each vertex) and 1 the slope's (g_theta at each vertex)
@@ -674,7 +674,7 @@ class SchurLU:
 
     def _schur_lu_solve(self, v: np.ndarray) -> np.ndarray:
         """The last complement formed, solved for v (LAPACK's getrs on its LU)."""
-        x, info = _getrs(*self.S, v)
+        x, _ = _getrs(*self.S, v)  # (its info is non-zero only for invalid arguments)
         return x
 
     def _factor_film_block(self) -> None:
