@@ -404,7 +404,7 @@ class ElasticFilm:
     #: deformation's residual at the start, if larger). In the elastic engine cycle 1e-8 moves min
     #: h_min, max p_max and the mean friction power by < 1e-8 of themselves against 1e-11 (100 x below
     #: the integrator's rtol) and takes 23 % fewer Newton iterations (13414 against 17446 per cycle):
-    #: from a warm start the first iteration leaves ~1e-6 of the source (median), the second ~1e-12
+    #: from a warm start the first iteration leaves ~1e-6 of the source (median), the second below 1e-11
     TOLERANCE = 1e-8
 
     def solve(self) -> int:
