@@ -818,8 +818,8 @@ class FilmModel:
     def _set_rate(self, time_s: float | None) -> None:
         """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``, by ``_bdf2``
         (quasi-static without a committed state)."""
-        n, Phi = self._ehd.n, self._ehd.Phi
-        rate = self._bdf2(time_s, lambda x: Phi @ x[n:])
+        n, ehd = self._ehd.n, self._ehd
+        rate = self._bdf2(time_s, lambda x: ehd.deformation(x[n:]))
         if rate is None:
             self._inverse_step.value = 0.0
             return
@@ -1205,7 +1205,7 @@ class FilmModel:
             d = self._ehd.sensitivities(self._ehd.residual_derivatives(dr_film, names))
             n = self._ehd.n
             dP_arrays = [d_k[:n] for d_k in d]
-            dW = [self._ehd.Phi @ d_k[n:] for d_k in d]
+            dW = [self._ehd.deformation(d_k[n:]) for d_k in d]
         elif self._jfo is not None:  # the mass-conserving film's own (solver.film.jfo)
             n = len(self._owned_coords)
             dr_u = self._jfo_derivatives.kinematic_derivatives(self._jfo.u.x.array[:n], self._jfo_rate)

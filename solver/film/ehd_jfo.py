@@ -196,6 +196,11 @@ class ElasticJFOFilm(ElasticFilm):
         self._partition: np.ndarray | None = None
         self._scale = 1.0
 
+    @staticmethod
+    def _midpoint_expressions(operator, derivatives) -> list:
+        """The derivatives only: this film's coefficients are MidpointJFO's, not the operator's."""
+        return list(derivatives)
+
     # -- residual --------------------------------------------------------------------------------
     def residual(self, x: np.ndarray) -> np.ndarray:
         """R(u, q) (module docstring); caches this state's matrices and coefficients."""
@@ -204,9 +209,8 @@ class ElasticJFOFilm(ElasticFilm):
         plus, theta = np.maximum(u, 0.0), 1.0 + np.minimum(u, 0.0)
         P = self.lower + plus
         self.P.x.array[:n] = P
-        self.W.x.array[:] = self.Phi @ q
-        # the asperity pressure and its slope (columns 4, 5 of the derivatives, after the operator's coefficients)
-        self.k = self.expression.eval(op.cells)[:, len(op.coefficients):]
+        self.W.x.array[:] = self.deformation(q)
+        self.k = self.expression.eval(op.cells)  # the asperity pressure and its slope (columns 4, 5)
         c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
         self.c = c
         K = scipy.sparse.csr_matrix((op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n))
@@ -224,7 +228,7 @@ class ElasticJFOFilm(ElasticFilm):
         R_u[self.is_bc] = u[self.is_bc] - self.u_bc[self.is_bc]
         p, self.slope = (P, None) if self.pressure_map is None else self.pressure_map(P)
         F = self.areas * p + self.to_nodes @ self.k[:, 4]
-        R_q = q - self.gains * (self.Phi.T @ F)
+        R_q = q - self.gains * self.modal_forces(F)
         self._state = x.copy()
         self._r = np.concatenate([R_u, R_q])
         return self._r
