@@ -253,7 +253,9 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("oil", "cavitation", "cavitation", str, "reynolds", choices=("reynolds", "jfo"),
               doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
                   "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
-                  "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there)"),
+                  "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In an engine "
+                  "run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, rtol 1e-7, "
+                  "as `cases/reference-2000rpm-jfo`; the README's refinement study)"),
     FieldSpec("oil", "inlet", "inlet", str, "none", choices=INLETS,
               doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
                   "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
