@@ -150,9 +150,9 @@ class ElasticFilm:
         self.comm = MPI.COMM_SELF
         self.expression = fem.Expression(ufl.as_vector(self._midpoint_expressions(operator, derivatives)), MIDPOINT)
         Phi, gains = shapes
-        self.Phi, self.gains = scipy.sparse.csr_matrix(Phi), np.asarray(gains, float)
+        Phi, self.gains = scipy.sparse.csr_matrix(Phi), np.asarray(gains, float)
         op = operator
-        n, m = len(lower), self.Phi.shape[1]
+        n, m = len(lower), Phi.shape[1]
         self.n, self.m = n, m
         cells = op.cells
         c3 = np.repeat(cells, 3)
@@ -160,18 +160,18 @@ class ElasticFilm:
         average = scipy.sparse.csr_matrix((np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())),
                                           shape=(len(cells), n))  # midpoint value of a P1 field
         slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
-        self.average_Phi = (average @ self.Phi).tocsr()  # dW_K/dq
-        self.slope_Phi = (slope @ self.Phi).tocsr()  # dW'_K/dq
+        self.average_Phi = (average @ Phi).tocsr()  # dW_K/dq
+        self.slope_Phi = (slope @ Phi).tocsr()  # dW'_K/dq
         # with a few modes the shapes are dense: their products with the cells' sparse matrices as dense
         # arrays (a sparse-sparse product with a dense result costs ~10 x more)
         self.dense = m < n
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
-        # for deformation() and modal_forces(): a dense array with a few modes (a CSR matrix of its n m
-        # entries multiplies ~3 x slower)
-        self._Phi = self.Phi.toarray() if self.dense else self.Phi
+        # the shapes, for deformation() and modal_forces(): a dense array with a few modes (a CSR matrix of
+        # its n m entries multiplies ~3 x slower)
+        self.Phi = Phi.toarray() if self.dense else Phi
         self.interior = np.ones(n)
         self.interior[op.bc_dofs] = 0.0
-        self.gPhiT = (scipy.sparse.diags(self.gains) @ self.Phi.T).tocsr()
+        self.gPhiT = (scipy.sparse.diags(self.gains) @ Phi.T).tocsr()
         self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
         if self.dense:
             self._average_Phi = self.average_Phi.toarray()
@@ -234,11 +234,11 @@ class ElasticFilm:
 
     def deformation(self, q: np.ndarray) -> np.ndarray:
         """W = Phi q at the film's dofs (/ c)."""
-        return self._Phi @ q
+        return self.Phi @ q
 
     def modal_forces(self, F: np.ndarray) -> np.ndarray:
         """Phi^T F: nodal forces on the modes."""
-        return self._Phi.T @ F
+        return self.Phi.T @ F
 
     @staticmethod
     def _border_map(op: MidpointOperator, n: int) -> tuple:
@@ -343,7 +343,7 @@ class ElasticFilm:
         if self.dense:  # the same blocks as dense arrays (module docstring)
             mapping, indices, indptr = self._border
             M = scipy.sparse.csr_matrix((mapping @ np.concatenate([local.ravel(), slopes]), indices, indptr), shape=(n, n))
-            J_Pq = self.interior[:, None] * (M @ self._Phi)
+            J_Pq = self.interior[:, None] * (M @ self.Phi)
             touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
             J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (k[touching, 5, None] * self._average_Phi[touching])
             J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
