@@ -1,12 +1,14 @@
 """Verification study of the coupled engine (too long for CI; its table goes into the README).
 
     .venv/bin/python3 bench/verify_engine.py [--case DIR] [--base-mesh H] [--base-step DEG]
-        [--base-rtol R] [--max-cycles N] [--periodic-tolerance T] [--only VARIANT ...] [--keep]
+        [--base-rtol R] [--max-cycles N] [--periodic-tolerance T] [--periodic-friction-tolerance F]
+        [--only VARIANT ...] [--keep]
 
 Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's) with the mixed finite-element film at a base resolution and refined
 variants, and physical variants, each until periodic (at most 3 cycles), and prints:
 
-- periodicity: cycles needed and the last cycle-to-cycle change of min h_min;
+- periodicity: cycles needed and the last cycle-to-cycle change of min h_min (and of the mean
+  friction power, with ``--periodic-friction-tolerance``);
 - mesh and time-step convergence: the cycle minimum of h_min and the cycle-mean friction power of
   each refinement against the base (target: changes < 2 %);
 - trends: higher viscosity -> larger minimum film and smaller asperity load; rougher surfaces ->
@@ -59,7 +61,10 @@ def metrics(path: Path) -> dict[str, float]:
         audit = float(ds.input_work[-1]) - change - dissipated + float(ds.drift_work[-1])
         sampled = simpson(ds.dissipated_power.values, x=t)
         outputs = simpson(ds.input_power.values, x=t) - change - sampled
+        friction = ds.attrs.get("history.friction_power_mean")
+        last_change = abs(friction[-1] / friction[-2] - 1) if friction is not None and len(friction) > 1 else float("nan")
         return {"h_min_min": float(ds.h_min.min()), "friction_power_mean": float(ds.friction_power.mean()),
+                "friction_last_change": last_change,
                 "F_asperity_max": float(ds.F_asperity.max()), "p_max_max": float(ds.p_max.max()),
                 "cycles": int(ds.attrs["cycles"]), "periodic": ds.attrs["periodic"], "wall": float(ds.attrs["wall_time_s"]),
                 "energy_error": audit / dissipated, "energy_error_outputs": outputs / sampled,
@@ -76,6 +81,9 @@ def main() -> None:
     parser.add_argument("--periodic-tolerance", type=float, default=0.01,
                         help="solver.periodic_tolerance of every variant (the change of the cycle minimum of h_min, "
                              "/ clearance, below which a run is periodic)")
+    parser.add_argument("--periodic-friction-tolerance", type=float, default=None,
+                        help="solver.periodic_friction_tolerance of every variant (the relative change of the "
+                             "cycle-mean friction power that must hold as well; default: not checked)")
     parser.add_argument("--no-base", action="store_true", help="skip the base run (run it in another process)")
     parser.add_argument("--keep", action="store_true")
     parser.add_argument("--only", nargs="*", default=None, help="run only these variants (and the base)")
@@ -84,6 +92,8 @@ def main() -> None:
     base = {"joint": '"mixed-fem"', "max_cycles": args.max_cycles, "periodic_tolerance": args.periodic_tolerance,
             "mesh_size": args.base_mesh,
             "step_deg": args.base_step, "rtol": args.base_rtol, "field_angles_deg": "[]", "field_step_deg": 0}
+    if args.periodic_friction_tolerance is not None:
+        base["periodic_friction_tolerance"] = args.periodic_friction_tolerance
     variants = {
         "base": (base, ""),
         "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, ""),
@@ -112,15 +122,17 @@ def main() -> None:
         return
     b = rows["base"]
     print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
-          f"tolerance {args.periodic_tolerance:g} (cycles: {b['cycles']}, periodic: {b['periodic']})")
-    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | max asperity force [N] | "
-          "max p_max [MPa] | energy balance error (audit; outputs' Simpson) | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} (cycles: {b['cycles']}, "
+          f"periodic: {b['periodic']})")
+    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | friction's change in the "
+          "last cycle | max asperity force [N] | max p_max [MPa] | energy balance error (audit; outputs' Simpson) | "
+          "wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, r in rows.items():
         dh = (r["h_min_min"] / b["h_min_min"] - 1) * 100
         dp = (r["friction_power_mean"] / b["friction_power_mean"] - 1) * 100
         print(f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
-              f"{dp:+.2f} % | {r['F_asperity_max']:.0f} | {r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
+              f"{dp:+.2f} % | {100 * r['friction_last_change']:.2f} % | {r['F_asperity_max']:.0f} | {r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
               f"({100 * r['energy_error_outputs']:+.2f} %) | {r['wall']:.0f} |")
     if "viscosity x 2" not in rows or "roughness x 1.5" not in rows:
         return

@@ -158,10 +158,12 @@ def detach_log(handler: logging.Handler | None) -> None:
 
 
 def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=(), *,
-                     thermal: list[dict] | None = None, film: list[tuple[float, np.ndarray]] | None = None) -> None:
+                     thermal: list[dict] | None = None, film: list[tuple[float, np.ndarray]] | None = None,
+                     friction=()) -> None:
     """State at a cycle end, with the h_min history, the cycles' timing, the thermal iteration's
-    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal) and an elastic bushing's
-    committed film states (solver.film.bearing.FilmModel.deformation_history; None: rigid) (atomic)."""
+    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal), an elastic bushing's
+    committed film states (solver.film.bearing.FilmModel.deformation_history; None: rigid) and the
+    cycles' mean friction power (atomic)."""
     film = film or []
     film_times = np.array([time for time, _ in film], dtype=float)
     film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
@@ -169,12 +171,12 @@ def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd,
         with open(part, "wb") as stream:
             np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history),
                      timings=json.dumps(list(timings)), thermal=json.dumps(thermal), film_times=film_times,
-                     film_states=film_states)
+                     film_states=film_states, friction=np.asarray(friction, dtype=float))
 
 
 def read_checkpoint(path: Path, fingerprint: str):
-    """(cycles done, t, q, qd, h_min history, timings, thermal state or None, committed film states) from a
-    checkpoint of the same case, else None."""
+    """(cycles done, t, q, qd, h_min history, timings, thermal state or None, committed film states,
+    friction history) from a checkpoint of the same case, else None."""
     if not path.is_file():
         return None
     try:
@@ -185,8 +187,9 @@ def read_checkpoint(path: Path, fingerprint: str):
             timings = json.loads(str(data["timings"])) if "timings" in data else []
             thermal = json.loads(str(data["thermal"])) if "thermal" in data else None
             film = list(zip(data["film_times"].tolist(), data["film_states"].copy())) if "film_times" in data else []
+            friction = list(data["friction"]) if "friction" in data else []
             return (int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"]),
-                    timings, thermal, film)
+                    timings, thermal, film, friction)
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
         return None
@@ -236,6 +239,9 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         **{f"timing.{name}": np.array([cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float)
            for name in TIMING},
         "timing.fields_io_s": run.fields_seconds,
+        **{f"history.{name}": np.array(values, dtype=float) for name, values in run.cycle_history.items()},
+        "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum of h_min "
+        "[m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's quantities)",
         "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
         + "; one value per computed cycle, the first cycle first",
         "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",

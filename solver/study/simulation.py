@@ -9,7 +9,9 @@ so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8)
 The run starts from the ideal-joint configuration at 0 deg with the pin centred in its bushing and
 integrates whole 720 deg cycles until the cycle minimum of the film thickness changes by less than
 ``solver.periodic_tolerance`` x clearance from one cycle to the next (at least two cycles, at most
-``solver.max_cycles``); the last cycle is reported. The state is checkpointed at every cycle end
+``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is set, the cycle-mean friction
+power by less than that fraction of itself (a mass-conserving film can hold min h_min to 2 nm while
+its friction still grows by a few per cent a cycle); the last cycle is reported. The state is checkpointed at every cycle end
 (``results/checkpoint.npz``), so an interrupted run resumes from the last finished cycle.
 
 With ``oil.thermal = "effective"`` the film's temperature is iterated with the cycles too
@@ -82,6 +84,19 @@ class CycleOutput:
     h_min_min: float
     timing: dict[str, float] = dataclasses.field(default_factory=dict)  # see TIMING
 
+    @property
+    def friction_power_mean(self) -> float:
+        """W, the cycle mean of the friction power over the crank angle (as results.nc's summary)."""
+        return cycle_mean(self.columns["friction_power"], self.columns["crank_angle"])
+
+
+def _relative_change(values: list[float]) -> float:
+    """|last - previous| / |last| of a per-cycle history; inf with fewer than two cycles."""
+    if len(values) < 2:
+        return math.inf
+    change = abs(values[-1] - values[-2])
+    return change / abs(values[-1]) if values[-1] != 0 else (0.0 if change == 0 else math.inf)
+
 
 def _case_fingerprint(case: Case, joint: str) -> str:
     text = repr(sorted((k, str(v)) for k, v in case_attributes(case).items())) + joint + __version__
@@ -147,6 +162,7 @@ class _Run:
         self.step_deg = math.degrees(case.solver.step)
         self.steps = 0  # accepted integrator steps so far
         self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
+        self.cycle_history: dict[str, list[float]] = {}  # per cycle (resumed ones included): min h_min, friction
         self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
         # per output state of the last integrated cycle, the committed states (time, elastic unknowns) its
         # deformation's rate was taken from (None: rigid, or quasi-static), for write_fields to solve the
@@ -623,7 +639,7 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     state = results_io.read_checkpoint(checkpoint, fingerprint) if resume else None
     timings: list[dict[str, float]] = []
     if state is not None:
-        first, t0, q0, qd0, history, timings, thermal_state, film_states = state
+        first, t0, q0, qd0, history, timings, thermal_state, film_states, friction = state
         log.info("resuming after cycle %d from %s", first, checkpoint)
         if run.model is not None:  # an elastic bushing's deformation (JFO: film fraction) history goes on
             for time_s, film_state in film_states:
@@ -634,7 +650,7 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
             thermal = run.thermal
             run.thermal = EffectiveTemperature.from_state(thermal.model, thermal.tolerance, thermal_state)
     else:
-        first, history = 0, []
+        first, history, friction = 0, [], []
         t0, q0, qd0 = run.em.initial_state(0.0)
     bar = None
     if progress and comm.rank == 0:
@@ -650,6 +666,15 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     cycle = None
     periodic = False
     c = case.small_end.clearance
+    friction_tolerance = case.solver.periodic_friction_tolerance
+
+    def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
+        h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+        f_change = _relative_change(friction)
+        text = f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), mean friction " \
+               f"power = {friction[-1]:.6g} W (change {f_change:.2g})"
+        return h_change < case.solver.periodic_tolerance and (
+            friction_tolerance is None or f_change < friction_tolerance), text
 
     def at_film_temperature(t_start: float) -> None:  # the temperature the thermal iteration asks for
         if run.thermal is not None and run.thermal.temperature != run.film_temperature:
@@ -675,9 +700,9 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
                 at_film_temperature(t0)
                 cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
                 history.append(cycle.h_min_min)
-                change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
-                log.info("cycle %d: min h_min = %.4g um (change %.2g of the clearance)", index + 1,
-                         cycle.h_min_min * 1e6, change)
+                friction.append(cycle.friction_power_mean)
+                settled_now, text = settled()
+                log.info("cycle %d: %s", index + 1, text)
                 consistent = thermal_step(index, cycle)
                 begin = time.perf_counter()
                 timings.append(cycle.timing)
@@ -685,11 +710,11 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
                     thermal = run.thermal.state() if run.thermal is not None else None
                     film = run.model.deformation_history() if run.model is not None else None
                     results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history,
-                                                timings, thermal=thermal, film=film)
+                                                timings, thermal=thermal, film=film, friction=friction)
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
-                if change < case.solver.periodic_tolerance and consistent:
+                if settled_now and consistent:
                     periodic = True
                     break
     finally:
@@ -699,13 +724,15 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
         at_film_temperature(t0)
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
+        friction.append(cycle.friction_power_mean)
         thermal_step(len(history) - 1, cycle)
         timings.append(cycle.timing)
     run.timings = timings
-    change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
-    if not change < case.solver.periodic_tolerance:
-        log.warning("not periodic after %d cycles (tolerance %g of the clearance)", len(history),
-                    case.solver.periodic_tolerance)
+    run.cycle_history = {"h_min_min": list(history), "friction_power_mean": list(friction)}
+    if not settled()[0]:
+        log.warning("not periodic after %d cycles (tolerance %g of the clearance%s)", len(history),
+                    case.solver.periodic_tolerance,
+                    "" if friction_tolerance is None else f"; friction {friction_tolerance:g} of itself")
     if run.thermal is not None and not run.thermal.converged:
         log.warning("not thermally consistent after %d cycles: heat balance closure %.2g (tolerance %g)",
                     len(history), run.thermal.history[-1].closure, run.thermal.tolerance)

@@ -128,7 +128,37 @@ def test_interrupted_run_resumes_and_gives_the_same_numbers(tmp_path, monkeypatc
     with xr.open_dataset(straight.results) as a, xr.open_dataset(resumed.results) as b:
         for name in ("pin_force_x", "ecc_x", "ecc_y", "h_min", "crank_torque"):
             np.testing.assert_array_equal(a[name].values, b[name].values)
+        for name in ("history.h_min_min", "history.friction_power_mean"):  # the checkpoint carries them
+            assert len(b.attrs[name]) == 2
+            np.testing.assert_array_equal(a.attrs[name], b.attrs[name])
     assert not (case / "results" / "checkpoint.npz").exists()
+
+
+@pytest.mark.serial
+def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
+    """With solver.periodic_friction_tolerance a run is periodic only when the cycle-mean friction power
+    changes by less than that fraction of itself as well (a JFO film's h_min can settle cycles before its
+    friction). Reference: the per-cycle history (results.nc ``history.*``) of the same deterministic run
+    held to three cycles; a tolerance between its second and third cycles' friction changes must stop
+    the run after exactly three cycles, where the h_min test alone (0.5 of the clearance) stops after two."""
+    keys = 'joint = "short-bearing"\nstep_deg = 5\nfield_step_deg = 0\nperiodic_tolerance = 0.5\n'
+    held = run_case(make_case(tmp_path / "held", keys + "max_cycles = 3\nperiodic_friction_tolerance = 1e-15\n"),
+                    MPI.COMM_SELF)
+    with xr.open_dataset(held.results) as ds:
+        friction, h_min = ds.attrs["history.friction_power_mean"], ds.attrs["history.h_min_min"]
+        assert ds.attrs["periodic"] == "false" and ds.attrs["solver.periodic_friction_tolerance"] == 1e-15
+    assert len(friction) == len(h_min) == held.cycles == 3
+    # the last entries are the reported cycle's (the summary's trapezoidal mean over the crank angle)
+    assert friction[-1] == pytest.approx(held.friction_power_mean, rel=1e-12) and h_min[-1] == held.h_min_min
+    change = np.abs(np.diff(friction)) / np.abs(friction[1:])
+    assert change[1] < change[0]  # the friction settles; between them the tolerance
+    tolerance = math.sqrt(change[0] * change[1])
+    stopped = run_case(make_case(tmp_path / "stopped", keys + f"max_cycles = 5\nperiodic_friction_tolerance = "
+                                 f"{tolerance!r}\n"), MPI.COMM_SELF)
+    assert stopped.cycles == 3 and stopped.periodic
+    assert stopped.friction_power_mean == pytest.approx(held.friction_power_mean, rel=1e-12)
+    loose = run_case(make_case(tmp_path / "loose", keys + "max_cycles = 5\n"), MPI.COMM_SELF)
+    assert loose.cycles == 2 and loose.periodic
 
 
 @pytest.mark.serial
