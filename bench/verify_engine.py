@@ -62,7 +62,10 @@ def metrics(path: Path) -> dict[str, float]:
         sampled = simpson(ds.dissipated_power.values, x=t)
         outputs = simpson(ds.input_power.values, x=t) - change - sampled
         friction = ds.attrs.get("history.friction_power_mean")
-        last_change = abs(friction[-1] / friction[-2] - 1) if friction is not None and len(friction) > 1 else float("nan")
+        # the periodic test's measure, signed: (last - previous) / last
+        last_change = float("nan")
+        if friction is not None and len(friction) > 1:
+            last_change = (friction[-1] - friction[-2]) / friction[-1]
         return {"h_min_min": float(ds.h_min.min()), "friction_power_mean": float(ds.friction_power.mean()),
                 "friction_last_change": last_change,
                 "F_asperity_max": float(ds.F_asperity.max()), "p_max_max": float(ds.p_max.max()),
@@ -82,8 +85,8 @@ def main() -> None:
                         help="solver.periodic_tolerance of every variant (the change of the cycle minimum of h_min, "
                              "/ clearance, below which a run is periodic)")
     parser.add_argument("--periodic-friction-tolerance", type=float, default=None,
-                        help="solver.periodic_friction_tolerance of every variant (the relative change of the "
-                             "cycle-mean friction power that must hold as well; default: not checked)")
+                        help="solver.periodic_friction_tolerance of every variant (the relative change "
+                             "of the cycle-mean friction power that must hold as well; default: not checked)")
     parser.add_argument("--no-base", action="store_true", help="skip the base run (run it in another process)")
     parser.add_argument("--keep", action="store_true")
     parser.add_argument("--only", nargs="*", default=None, help="run only these variants (and the base)")
@@ -122,17 +125,18 @@ def main() -> None:
         return
     b = rows["base"]
     print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
-          f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} (cycles: {b['cycles']}, "
-          f"periodic: {b['periodic']})")
-    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | friction's change in the "
-          "last cycle | max asperity force [N] | max p_max [MPa] | energy balance error (audit; outputs' Simpson) | "
-          "wall [s] |")
+          f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} "
+          f"(cycles: {b['cycles']}, periodic: {b['periodic']})")
+    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | friction's "
+          "change in the last cycle | max asperity force [N] | max p_max [MPa] | energy balance error "
+          "(audit; outputs' Simpson) | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, r in rows.items():
         dh = (r["h_min_min"] / b["h_min_min"] - 1) * 100
         dp = (r["friction_power_mean"] / b["friction_power_mean"] - 1) * 100
         print(f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
-              f"{dp:+.2f} % | {100 * r['friction_last_change']:.2f} % | {r['F_asperity_max']:.0f} | {r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
+              f"{dp:+.2f} % | {100 * r['friction_last_change']:+.2f} % | {r['F_asperity_max']:.0f} | "
+              f"{r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
               f"({100 * r['energy_error_outputs']:+.2f} %) | {r['wall']:.0f} |")
     if "viscosity x 2" not in rows or "roughness x 1.5" not in rows:
         return

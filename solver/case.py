@@ -314,8 +314,9 @@ FIELDS: tuple[FieldSpec, ...] = (
     _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
        doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance"),
     _f("solver", "periodic_friction_tolerance", "periodic_friction_tolerance", None, 1.0, 0.0, 1.0,
-       doc="also require the cycle-mean friction power to change by less than this fraction of itself from one "
-           "cycle to the next (absent: not checked); a JFO film's min h_min can settle cycles before its friction"),
+       doc="also require the cycle-mean friction power to change by less than this fraction of itself from "
+           "one cycle to the next (absent: not checked); a JFO film's min h_min can settle cycles before its "
+           "friction"),
     FieldSpec("solver", "field_angles_deg", "field_angles", list, [0.0, 180.0, 360.0, 380.0, 540.0], DEG, 0.0, 720.0,
               False, doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)"),
     _f("solver", "field_step_deg", "field_step", 5.0, DEG, 0.0, 720.0, closed=True, unit="deg",
@@ -553,7 +554,7 @@ class Solver:
     film_fraction_transport: str = "limited"  # limited | upwind (solver.film.jfo)
     max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
-    periodic_friction_tolerance: float | None = _field("solver", "periodic_friction_tolerance")  # of itself; None: off
+    periodic_friction_tolerance: float | None = _field("solver", "periodic_friction_tolerance")  # None: off
     field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad
     field_step: float = _field("solver", "field_step")  # rad, ParaView series step (0: no series)
     slip_regularisation: float = _field("solver", "slip_regularisation")  # m/s

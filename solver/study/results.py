@@ -240,8 +240,9 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
            for name in TIMING},
         "timing.fields_io_s": run.fields_seconds,
         **{f"history.{name}": np.array(values, dtype=float) for name, values in run.cycle_history.items()},
-        "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum of h_min "
-        "[m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's quantities)",
+        "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum "
+        "of h_min [m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's "
+        "quantities)",
         "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
         + "; one value per computed cycle, the first cycle first",
         "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",

@@ -11,8 +11,9 @@ integrates whole 720 deg cycles until the cycle minimum of the film thickness ch
 ``solver.periodic_tolerance`` x clearance from one cycle to the next (at least two cycles, at most
 ``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is set, the cycle-mean friction
 power by less than that fraction of itself (a mass-conserving film can hold min h_min to 2 nm while
-its friction still grows by a few per cent a cycle); the last cycle is reported. The state is checkpointed at every cycle end
-(``results/checkpoint.npz``), so an interrupted run resumes from the last finished cycle.
+its friction still grows by a few per cent a cycle); the last cycle is reported. The state is
+checkpointed at every cycle end (``results/checkpoint.npz``), so an interrupted run resumes from the
+last finished cycle.
 
 With ``oil.thermal = "effective"`` the film's temperature is iterated with the cycles too
 (solver.study.thermal): cycle k runs at T_k, its heat balance (cycle means of ``dissipated_power`` and
@@ -162,7 +163,7 @@ class _Run:
         self.step_deg = math.degrees(case.solver.step)
         self.steps = 0  # accepted integrator steps so far
         self.timings: list[dict[str, float]] = []  # TIMING of each computed cycle (resumed ones included)
-        self.cycle_history: dict[str, list[float]] = {}  # per cycle (resumed ones included): min h_min, friction
+        self.cycle_history: dict[str, list[float]] = {}  # per cycle (resumed ones too): min h_min, friction
         self.fields_seconds = 0.0  # writing the ParaView fields after the cycles
         # per output state of the last integrated cycle, the committed states (time, elastic unknowns) its
         # deformation's rate was taken from (None: rigid, or quasi-static), for write_fields to solve the
@@ -671,8 +672,8 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
         h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
         f_change = _relative_change(friction)
-        text = f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), mean friction " \
-               f"power = {friction[-1]:.6g} W (change {f_change:.2g})"
+        text = (f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), "
+                f"mean friction power = {friction[-1]:.6g} W (change {f_change:.2g})")
         return h_change < case.solver.periodic_tolerance and (
             friction_tolerance is None or f_change < friction_tolerance), text
 

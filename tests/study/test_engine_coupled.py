@@ -142,8 +142,8 @@ def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
     held to three cycles; a tolerance between its second and third cycles' friction changes must stop
     the run after exactly three cycles, where the h_min test alone (0.5 of the clearance) stops after two."""
     keys = 'joint = "short-bearing"\nstep_deg = 5\nfield_step_deg = 0\nperiodic_tolerance = 0.5\n'
-    held = run_case(make_case(tmp_path / "held", keys + "max_cycles = 3\nperiodic_friction_tolerance = 1e-15\n"),
-                    MPI.COMM_SELF)
+    held = run_case(make_case(tmp_path / "held", keys + "max_cycles = 3\nperiodic_friction_tolerance = "
+                              "1e-15\n"), MPI.COMM_SELF)
     with xr.open_dataset(held.results) as ds:
         friction, h_min = ds.attrs["history.friction_power_mean"], ds.attrs["history.h_min_min"]
         assert ds.attrs["periodic"] == "false" and ds.attrs["solver.periodic_friction_tolerance"] == 1e-15
@@ -153,8 +153,8 @@ def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
     change = np.abs(np.diff(friction)) / np.abs(friction[1:])
     assert change[1] < change[0]  # the friction settles; between them the tolerance
     tolerance = math.sqrt(change[0] * change[1])
-    stopped = run_case(make_case(tmp_path / "stopped", keys + f"max_cycles = 5\nperiodic_friction_tolerance = "
-                                 f"{tolerance!r}\n"), MPI.COMM_SELF)
+    stopped = run_case(make_case(tmp_path / "stopped", keys + "max_cycles = 5\nperiodic_friction_tolerance"
+                                 f" = {tolerance!r}\n"), MPI.COMM_SELF)
     assert stopped.cycles == 3 and stopped.periodic
     assert stopped.friction_power_mean == pytest.approx(held.friction_power_mean, rel=1e-12)
     loose = run_case(make_case(tmp_path / "loose", keys + "max_cycles = 5\n"), MPI.COMM_SELF)
