@@ -26,7 +26,6 @@ import xarray as xr
 from solver import __version__
 from solver.case import case_attributes
 from solver.study import io
-from solver.study.thermal import cycle_mean
 
 log = logging.getLogger(__name__)
 
@@ -222,7 +221,7 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
         "h_min_min": nan_reduce(np.nanmin, cols["h_min"]),
         "p_max_max": nan_reduce(np.nanmax, cols["p_max"]),
         "F_asperity_max": nan_reduce(np.nanmax, cols["F_asperity"]),
-        "friction_power_mean": cycle_mean(cols["friction_power"], cols["crank_angle"]),
+        "friction_power_mean": cycle.friction_power_mean,
     }
     film = run.film_record(cycle)
     attrs = {**case_attributes(case)}
