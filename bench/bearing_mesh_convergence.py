@@ -33,19 +33,28 @@ def load(ratio: float, eps: float, motion: str, mesh_size: float) -> tuple[float
             kin = Kinematics((eps * C * direction[0], eps * C * direction[1]), (0.0, 0.0), OMEGA, 0.0)
         else:  # squeeze along the line of centres, towards the minimum gap
             rate = C * OMEGA
-            kin = Kinematics((eps * C * direction[0], eps * C * direction[1]),
-                             (rate * direction[0], rate * direction[1]), 0.0, 0.0)
+            kin = Kinematics(
+                (eps * C * direction[0], eps * C * direction[1]),
+                (rate * direction[0], rate * direction[1]),
+                0.0,
+                0.0,
+            )
         return model.solve(kin).load, model.dofs
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--mesh-size", type=float, default=None, help="element size / R (default: the film's default)")
+    parser.add_argument(
+        "--mesh-size", type=float, default=None, help="element size / R (default: the film's default)"
+    )
     parser.add_argument("--ratios", default="0.125,0.25,0.5,1,2", help="B/D values")
     parser.add_argument("--eccentricities", default="0.2,0.6,0.95")
     args = parser.parse_args()
-    print("element size: " + (f"{args.mesh_size:g} R" if args.mesh_size else "the film's default for each B/D")
-          + " (refined twice by halving for the reference)")
+    print(
+        "element size: "
+        + (f"{args.mesh_size:g} R" if args.mesh_size else "the film's default for each B/D")
+        + " (refined twice by halving for the reference)"
+    )
     print("| B/D | eps | motion | element size / R | dofs | error of the load [%] | observed order |")
     print("|---|---|---|---|---|---|---|")
     worst = 0.0
@@ -60,7 +69,10 @@ def main() -> None:
                 converged = w2 + (w2 - w1) / (2**p - 1)
                 error = 100 * (w0 / converged - 1)
                 worst = max(worst, abs(error))
-                print(f"| {ratio:g} | {eps:g} | {motion} | {h:.4g} | {dofs} | {error:+.2f} | {order:.2f} |", flush=True)
+                print(
+                    f"| {ratio:g} | {eps:g} | {motion} | {h:.4g} | {dofs} | {error:+.2f} | {order:.2f} |",
+                    flush=True,
+                )
     print(f"largest error {worst:.2f} %; {time.perf_counter() - start:.0f} s")
 
 

@@ -36,17 +36,36 @@ def make_cases(root: Path, count: int, joint: str, step_deg: float) -> list[Path
         speed = SPEEDS[i % len(SPEEDS)]
         case = root / f"case{i}-{speed}rpm"
         case.mkdir(parents=True)
-        (case / "case.toml").write_text(f'[engine]\nspeed_rpm = {speed}\n'
-                                        f'[solver]\njoint = "{joint}"\nmax_cycles = 1\nstep_deg = {step_deg:g}\n')
+        (case / "case.toml").write_text(
+            f"[engine]\nspeed_rpm = {speed}\n"
+            f'[solver]\njoint = "{joint}"\nmax_cycles = 1\nstep_deg = {step_deg:g}\n'
+        )
         cases.append(case)
     return cases
 
 
 def run(ranks: int, root: Path, mpirun: str) -> dict:
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
-    command = [mpirun, "-n", str(ranks), sys.executable, "-m", "mpi4py", "-m", "solver", "batch", str(root),
-               "--no-summary"]
+    env = {
+        **os.environ,
+        "OMPI_ALLOW_RUN_AS_ROOT": "1",
+        "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+        "OMPI_MCA_rmaps_base_oversubscribe": "1",
+        "OMP_NUM_THREADS": "1",
+        "PYTHONPATH": str(ROOT),
+    }
+    command = [
+        mpirun,
+        "-n",
+        str(ranks),
+        sys.executable,
+        "-m",
+        "mpi4py",
+        "-m",
+        "solver",
+        "batch",
+        str(root),
+        "--no-summary",
+    ]
     start = time.perf_counter()
     result = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - start
@@ -54,16 +73,23 @@ def run(ranks: int, root: Path, mpirun: str) -> dict:
         sys.exit(f"batch on {ranks} rank(s) failed:\n{result.stderr}")
     status = json.loads((root / "batch_status.json").read_text())
     work = sum(r["wall_time_s"] for r in status["cases"])
-    return {"ranks": ranks, "wall": wall, "batch": status["wall_time_s"], "work": work,
-            "n": status["n_cases"], "per_rank": [sum(r["world_rank"] == k for r in status["cases"])
-                                                 for k in range(ranks)]}
+    return {
+        "ranks": ranks,
+        "wall": wall,
+        "batch": status["wall_time_s"],
+        "work": work,
+        "n": status["n_cases"],
+        "per_rank": [sum(r["world_rank"] == k for r in status["cases"]) for k in range(ranks)],
+    }
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cases", type=int, default=8)
-    parser.add_argument("--joint", default="short-bearing", choices=("short-bearing", "ideal", "dry", "mixed-fem"))
+    parser.add_argument(
+        "--joint", default="short-bearing", choices=("short-bearing", "ideal", "dry", "mixed-fem")
+    )
     parser.add_argument("--step-deg", type=float, default=5.0)
     parser.add_argument("--mpirun", default="mpirun")
     parser.add_argument("--keep", action="store_true", help="keep the case directories (printed)")
@@ -80,10 +106,14 @@ def main() -> int:
             print(f"# cases kept in {work_dir}")
         else:
             shutil.rmtree(work_dir, ignore_errors=True)
-    print(f"# {args.cases} cases, {args.joint} joint, 1 cycle, step {args.step_deg:g} deg; {os.cpu_count()} cores; "
-          f"load average before the last run {os.getloadavg()[0]:.2f}")
-    print(f"{'ranks':>5} {'command [s]':>11} {'batch [s]':>9} {'case sum [s]':>12} {'cases/hour':>10} "
-          f"{'E (command)':>11} {'E (batch)':>9} {'busy':>5} {'case slowdown':>13}  cases per rank")
+    print(
+        f"# {args.cases} cases, {args.joint} joint, 1 cycle, step {args.step_deg:g} deg; {os.cpu_count()} cores; "
+        f"load average before the last run {os.getloadavg()[0]:.2f}"
+    )
+    print(
+        f"{'ranks':>5} {'command [s]':>11} {'batch [s]':>9} {'case sum [s]':>12} {'cases/hour':>10} "
+        f"{'E (command)':>11} {'E (batch)':>9} {'busy':>5} {'case slowdown':>13}  cases per rank"
+    )
     base = rows[0]
     for row in rows:
         scale = row["ranks"] / base["ranks"]
@@ -91,9 +121,11 @@ def main() -> int:
         e_batch = base["batch"] / (scale * row["batch"])
         busy = row["work"] / (row["ranks"] * row["batch"])  # scheduling: share of rank time spent in cases
         slowdown = row["work"] / base["work"]  # > 1: the cases themselves ran slower (cores shared)
-        print(f"{row['ranks']:5d} {row['wall']:11.1f} {row['batch']:9.1f} {row['work']:12.1f} "
-              f"{row['n'] / row['wall'] * 3600:10.0f} {e_wall:11.2f} {e_batch:9.2f} {busy:5.2f} {slowdown:13.2f}  "
-              f"{row['per_rank']}")
+        print(
+            f"{row['ranks']:5d} {row['wall']:11.1f} {row['batch']:9.1f} {row['work']:12.1f} "
+            f"{row['n'] / row['wall'] * 3600:10.0f} {e_wall:11.2f} {e_batch:9.2f} {busy:5.2f} {slowdown:13.2f}  "
+            f"{row['per_rank']}"
+        )
     return 0
 
 

@@ -71,8 +71,10 @@ def main() -> None:
         built = time.perf_counter()
         bore = eye.bore_element_size / R
         print(f"element size {args.element_size:g} R (bore {bore:g} R), {eye.num_dofs} dofs")
-    print(f"set-up {built - start:.1f} s = mesh + stiffness + Cholesky {factorised - start:.1f} s "
-          f"+ {compliance.size} hat loads and back-substitutions {built - factorised:.1f} s")
+    print(
+        f"set-up {built - start:.1f} s = mesh + stiffness + Cholesky {factorised - start:.1f} s "
+        f"+ {compliance.size} hat loads and back-substitutions {built - factorised:.1f} s"
+    )
 
     loads = reference_loads(compliance)
     print(f"\ntruncation error (max norm, %) against the number of modes m (default {DEFAULT_MODES}):")
@@ -84,12 +86,16 @@ def main() -> None:
     g = REFERENCE
     winkler = winkler_coefficient(g.bushing_thickness, g.E_bushing, g.nu_bushing) * PRESSURE
     compression = bushing_compression(dataclasses.replace(g, E_eye=1000 * g.E_bushing), args.element_size * R)
-    print(f"\nbushing alone (eye 1000 x stiffer), uniform {PRESSURE / 1e6:g} MPa: "
-          f"compression {compression * 1e6:.2f} um; Winkler layer {winkler * 1e6:.2f} um (DESIGN 7: ~2 um)")
+    print(
+        f"\nbushing alone (eye 1000 x stiffer), uniform {PRESSURE / 1e6:g} MPa: "
+        f"compression {compression * 1e6:.2f} um; Winkler layer {winkler * 1e6:.2f} um (DESIGN 7: ~2 um)"
+    )
     w = compliance.matrix @ (PRESSURE * loads["opposite"])
     total = 2 * PRESSURE * loads["opposite"].sum()  # int p dA over the whole width
-    print(f"reference eye, {PRESSURE / 1e6:g} MPa bump opposite the shank (int p dA = {total / 1e3:.1f} kN): "
-          f"bore displacement {w.max() * 1e6:.1f} um under the peak")
+    print(
+        f"reference eye, {PRESSURE / 1e6:g} MPa bump opposite the shank (int p dA = {total / 1e3:.1f} kN): "
+        f"bore displacement {w.max() * 1e6:.1f} um under the peak"
+    )
 
 
 if __name__ == "__main__":

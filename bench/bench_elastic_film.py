@@ -40,8 +40,14 @@ def run(name: str, elastic, states: list[Kinematics]) -> dict:
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     start = time.perf_counter()
-    model = FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, roughness=surface.roughness(),
-                      contact=surface.contact(), elastic=elastic)
+    model = FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+        elastic=elastic,
+    )
     setup = time.perf_counter() - start
     start = time.perf_counter()
     model.solve(states[0])
@@ -56,10 +62,18 @@ def run(name: str, elastic, states: list[Kinematics]) -> dict:
         model.jacobian()
         jac.append(time.perf_counter() - start)
     model.close()
-    return {"model": name, "setup_s": setup, "cold_ms": 1e3 * cold, "warm_ms": 1e3 * statistics.median(warm),
-            "jacobian_ms": 1e3 * statistics.median(jac), "iterations": statistics.mean(iterations),
-            "load_N": result.load, "p_max_MPa": result.p_max / 1e6, "h_min_um": result.h_min * 1e6,
-            "deformation_um": result.max_deformation * 1e6}
+    return {
+        "model": name,
+        "setup_s": setup,
+        "cold_ms": 1e3 * cold,
+        "warm_ms": 1e3 * statistics.median(warm),
+        "jacobian_ms": 1e3 * statistics.median(jac),
+        "iterations": statistics.mean(iterations),
+        "load_N": result.load,
+        "p_max_MPa": result.p_max / 1e6,
+        "h_min_um": result.h_min * 1e6,
+        "deformation_um": result.max_deformation * 1e6,
+    }
 
 
 def main() -> None:
@@ -68,12 +82,26 @@ def main() -> None:
     args = parser.parse_args()
     states = path(args.steps)
     start = time.perf_counter()
-    eye = bushing_model("fe", radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=0.017, E_eye=210e9,
-                        nu_eye=0.3, E_bushing=115e9, nu_bushing=0.33, shank_half_angle_deg=30.0, modes=72,
-                        comm=MPI.COMM_SELF)
+    eye = bushing_model(
+        "fe",
+        radius=R,
+        width=2 * R,
+        bushing_thickness=1.5e-3,
+        eye_outer_radius=0.017,
+        E_eye=210e9,
+        nu_eye=0.3,
+        E_bushing=115e9,
+        nu_bushing=0.33,
+        shank_half_angle_deg=30.0,
+        modes=72,
+        comm=MPI.COMM_SELF,
+    )
     print(f"FE compliance of the eye: {time.perf_counter() - start:.1f} s (build, or read from the cache)")
-    rows = [run("rigid", None, states), run("winkler", WinklerLayer(1.5e-3, 115e9, 0.33), states),
-            run("fe (72 modes)", eye, states)]
+    rows = [
+        run("rigid", None, states),
+        run("winkler", WinklerLayer(1.5e-3, 115e9, 0.33), states),
+        run("fe (72 modes)", eye, states),
+    ]
     keys = list(rows[0])
     print(" | ".join(keys))
     for row in rows:

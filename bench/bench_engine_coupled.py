@@ -66,24 +66,35 @@ def main() -> None:
     cycles = summary.cycles
     io_total = float(timing["io_s"].sum()) + fields_io
     other_setup = total - float(timing["wall_s"].sum()) - fields_io  # case, mesh, forms, ideal cycle, results
-    print(f"reference case, mixed-fem, {cycles} cycles, total {total:.1f} s, h_min min {summary.h_min_min * 1e6:.4f} um, "
-          f"friction power mean {summary.friction_power_mean:.4f} W, p_max max {summary.p_max_max / 1e6:.2f} MPa, "
-          f"F_asperity max {summary.F_asperity_max:.2f} N")
+    print(
+        f"reference case, mixed-fem, {cycles} cycles, total {total:.1f} s, h_min min {summary.h_min_min * 1e6:.4f} um, "
+        f"friction power mean {summary.friction_power_mean:.4f} W, p_max max {summary.p_max_max / 1e6:.2f} MPa, "
+        f"F_asperity max {summary.F_asperity_max:.2f} N"
+    )
     print("| per cycle | wall [s] | share |")
     print("|---|---|---|")
-    rows = {"film solves": timing["film_solve_s"].sum(), "film Jacobians": timing["film_jacobian_s"].sum(),
-            "multibody, integrator, Python": timing["multibody_s"].sum(), "I/O (checkpoints, fields)": io_total,
-            "set-up and results": other_setup}
+    rows = {
+        "film solves": timing["film_solve_s"].sum(),
+        "film Jacobians": timing["film_jacobian_s"].sum(),
+        "multibody, integrator, Python": timing["multibody_s"].sum(),
+        "I/O (checkpoints, fields)": io_total,
+        "set-up and results": other_setup,
+    }
     for name, value in rows.items():
         print(f"| {name} | {value / cycles:.1f} | {100 * value / total:.0f} % |")
     print(f"| **total** | **{total / cycles:.1f}** | |")
     solves, jacobians = timing["film_solves"].sum(), timing["film_jacobians"].sum()
-    print(f"film solves {solves / cycles:.0f} per cycle ({1e3 * timing['film_solve_s'].sum() / max(1, solves):.2f} ms each, "
-          f"{timing['vi_iterations'].sum() / max(1, solves):.2f} VI iterations each), "
-          f"Jacobians {jacobians / cycles:.0f} per cycle ({1e3 * timing['film_jacobian_s'].sum() / max(1, jacobians):.2f} ms each), "
-          f"integrator steps {timing['steps'].sum() / cycles:.0f} per cycle ({timing['rejected_steps'].sum() / cycles:.0f} rejected)")
-    print("wall time of each cycle [s]: " + ", ".join(f"{w:.1f}" for w in timing["wall_s"])
-          + " (the first starts from the centred pin)")
+    print(
+        f"film solves {solves / cycles:.0f} per cycle ({1e3 * timing['film_solve_s'].sum() / max(1, solves):.2f} ms each, "
+        f"{timing['vi_iterations'].sum() / max(1, solves):.2f} VI iterations each), "
+        f"Jacobians {jacobians / cycles:.0f} per cycle ({1e3 * timing['film_jacobian_s'].sum() / max(1, jacobians):.2f} ms each), "
+        f"integrator steps {timing['steps'].sum() / cycles:.0f} per cycle ({timing['rejected_steps'].sum() / cycles:.0f} rejected)"
+    )
+    print(
+        "wall time of each cycle [s]: "
+        + ", ".join(f"{w:.1f}" for w in timing["wall_s"])
+        + " (the first starts from the centred pin)"
+    )
     shutil.rmtree(work, ignore_errors=True)
 
 

@@ -35,15 +35,25 @@ def main() -> int:
     parser.add_argument("--step-deg", type=float, default=0.5)
     args = parser.parse_args()
     engine = engine_from_case(load_case(args.case))
-    runs = [("kinematic", None), ("explicit", "RK45"), ("explicit", "DOP853"),
-            ("implicit", "ESDIRK32"), ("implicit", "Radau"), ("implicit", "BDF")]
+    runs = [
+        ("kinematic", None),
+        ("explicit", "RK45"),
+        ("explicit", "DOP853"),
+        ("implicit", "ESDIRK32"),
+        ("implicit", "Radau"),
+        ("implicit", "BDF"),
+    ]
     reference = simulate_ideal(engine, step_deg=args.step_deg)
     smooth = ~np.isin(reference.crank_angle, [0.0, 540.0, 720.0])
     peak = np.max(np.abs(reference.small_end_force))
-    print(f"# {engine.name}: {engine.crank_motion.speed * 60 / (2 * np.pi):g} rpm, one 720 deg cycle, "
-          f"outputs every {args.step_deg:g} deg, rtol {args.rtol:g}, best of {args.repeat}")
-    print(f"{'integrator':<12} {'time [s]':>9} {'steps':>6} {'f evals':>8} {'f+J evals':>9} "
-          f"{'output evals':>12} {'pin force dev':>13}")
+    print(
+        f"# {engine.name}: {engine.crank_motion.speed * 60 / (2 * np.pi):g} rpm, one 720 deg cycle, "
+        f"outputs every {args.step_deg:g} deg, rtol {args.rtol:g}, best of {args.repeat}"
+    )
+    print(
+        f"{'integrator':<12} {'time [s]':>9} {'steps':>6} {'f evals':>8} {'f+J evals':>9} "
+        f"{'output evals':>12} {'pin force dev':>13}"
+    )
     for integrator, method in runs:
         best, cycle = np.inf, None
         for _ in range(args.repeat):
@@ -53,8 +63,10 @@ def main() -> int:
             )
             best = min(best, time.perf_counter() - start)
         deviation = np.max(np.abs(cycle.small_end_force - reference.small_end_force)[smooth]) / peak
-        print(f"{cycle.integrator:<12} {best:9.3f} {cycle.n_steps:6d} {cycle.n_force_evaluations:8d} "
-              f"{cycle.n_jacobian_evaluations:9d} {cycle.n_output_evaluations:12d} {deviation:13.1e}")
+        print(
+            f"{cycle.integrator:<12} {best:9.3f} {cycle.n_steps:6d} {cycle.n_force_evaluations:8d} "
+            f"{cycle.n_jacobian_evaluations:9d} {cycle.n_output_evaluations:12d} {deviation:13.1e}"
+        )
     return 0
 
 

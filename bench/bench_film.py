@@ -34,7 +34,10 @@ def run(mesh_size: float, repeat: int, cavitation: str = "reynolds") -> dict:
     model = FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size, cavitation=cavitation)
     setup = time.perf_counter() - start
     direction = -1.0
-    kin = lambda eps: Kinematics((eps * C * math.cos(direction), eps * C * math.sin(direction)), (0, 0), OMEGA, 0)
+
+    def kin(eps: float) -> Kinematics:
+        return Kinematics((eps * C * math.cos(direction), eps * C * math.sin(direction)), (0, 0), OMEGA, 0)
+
     start = time.perf_counter()
     result = model.solve(kin(0.6))
     cold = time.perf_counter() - start
@@ -62,30 +65,50 @@ def run(mesh_size: float, repeat: int, cavitation: str = "reynolds") -> dict:
             lu.solve_full(b, x)
         limit = (time.perf_counter() - start) / repeat
     model.close()
-    return dict(mesh_size=mesh_size, dofs=model.dofs, setup_s=setup, cold_ms=cold * 1e3, cold_its=cold_its,
-                warm_ms=statistics.median(warm) * 1e3, warm_its=statistics.median(its), jacobian_ms=jac * 1e3,
-                limit_ms=limit * 1e3,
-                So_error_pct=100 * (So / SO_TABLE - 1))
+    return dict(
+        mesh_size=mesh_size,
+        dofs=model.dofs,
+        setup_s=setup,
+        cold_ms=cold * 1e3,
+        cold_its=cold_its,
+        warm_ms=statistics.median(warm) * 1e3,
+        warm_its=statistics.median(its),
+        jacobian_ms=jac * 1e3,
+        limit_ms=limit * 1e3,
+        So_error_pct=100 * (So / SO_TABLE - 1),
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=20)
-    parser.add_argument("--cavitation", choices=("reynolds", "jfo"), default="reynolds",
-                        help="the film's cavitation model (jfo: the mass-conserving film, steady)")
+    parser.add_argument(
+        "--cavitation",
+        choices=("reynolds", "jfo"),
+        default="reynolds",
+        help="the film's cavitation model (jfo: the mass-conserving film, steady)",
+    )
     args = parser.parse_args()
     start = time.perf_counter()
-    FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=OMEGA,
-              mesh_size=0.2).close()
+    FilmModel(
+        Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU),
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=0.2,
+    ).close()
     print(f"first model (JIT compilation if not cached): {time.perf_counter() - start:.2f} s")
-    header = ("| mesh size / R | dofs | setup [s] | cold solve [ms] (VI its) | warm solve [ms] (VI its) | "
-              "numeric LU + solve [ms] | Jacobian [ms] | So error vs table |")
+    header = (
+        "| mesh size / R | dofs | setup [s] | cold solve [ms] (VI its) | warm solve [ms] (VI its) | "
+        "numeric LU + solve [ms] | Jacobian [ms] | So error vs table |"
+    )
     print(header)
     print("|" + "---|" * 8)
     for h in (0.1, 0.07, 0.035):
         r = run(h, args.repeat, args.cavitation)
-        print(f"| {r['mesh_size']} | {r['dofs']} | {r['setup_s']:.2f} | {r['cold_ms']:.1f} ({r['cold_its']}) | "
-              f"{r['warm_ms']:.2f} ({r['warm_its']:.0f}) | {r['limit_ms']:.2f} | {r['jacobian_ms']:.1f} | {r['So_error_pct']:+.2f} % |")
+        print(
+            f"| {r['mesh_size']} | {r['dofs']} | {r['setup_s']:.2f} | {r['cold_ms']:.1f} ({r['cold_its']}) | "
+            f"{r['warm_ms']:.2f} ({r['warm_its']:.0f}) | {r['limit_ms']:.2f} | {r['jacobian_ms']:.1f} | {r['So_error_pct']:+.2f} % |"
+        )
 
 
 if __name__ == "__main__":

@@ -69,8 +69,12 @@ def replay(calls: np.ndarray) -> tuple[float, float, float, np.ndarray]:
             else:
                 checksum[4] += float(np.sum(model.jacobian().matrix))
         s = model.stats
-        return (1e3 * s.solve_seconds / s.solves, 1e3 * s.jacobian_seconds / max(1, s.jacobians),
-                s.vi_iterations / s.solves, checksum)
+        return (
+            1e3 * s.solve_seconds / s.solves,
+            1e3 * s.jacobian_seconds / max(1, s.jacobians),
+            s.vi_iterations / s.solves,
+            checksum,
+        )
 
 
 def main() -> None:
@@ -81,13 +85,17 @@ def main() -> None:
     if not args.calls.exists():
         start = time.perf_counter()
         record(args.calls)
-        print(f"recorded the film calls of the periodic cycle in {time.perf_counter() - start:.0f} s: {args.calls}")
+        print(
+            f"recorded the film calls of the periodic cycle in {time.perf_counter() - start:.0f} s: {args.calls}"
+        )
     calls = np.load(args.calls)
     runs = [replay(calls) for _ in range(args.repeat)]
     solves, jacobians = int(np.sum(calls[:, 0] == 0)), int(np.sum(calls[:, 0] == 1))
-    print(f"{solves} film solves: {statistics.median(r[0] for r in runs):.3f} ms each "
-          f"({runs[0][2]:.2f} VI iterations); {jacobians} Jacobians: {statistics.median(r[1] for r in runs):.3f} ms each "
-          f"(medians of {args.repeat} replays)")
+    print(
+        f"{solves} film solves: {statistics.median(r[0] for r in runs):.3f} ms each "
+        f"({runs[0][2]:.2f} VI iterations); {jacobians} Jacobians: {statistics.median(r[1] for r in runs):.3f} ms each "
+        f"(medians of {args.repeat} replays)"
+    )
     print("checksum (h_min, p_max, torques, Jacobians): " + " ".join(f"{v:.10e}" for v in runs[0][3]))
 
 

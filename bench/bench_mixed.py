@@ -35,7 +35,9 @@ def measure(rough: bool, repeat: int) -> dict:
             start = time.perf_counter()
             model.jacobian()
             jac.append(time.perf_counter() - start)
-        return dict(dofs=model.dofs, solve_ms=statistics.median(times) * 1e3, jacobian_ms=statistics.median(jac) * 1e3)
+        return dict(
+            dofs=model.dofs, solve_ms=statistics.median(times) * 1e3, jacobian_ms=statistics.median(jac) * 1e3
+        )
 
 
 def main() -> None:
@@ -46,9 +48,13 @@ def main() -> None:
     print("| film model | dofs | warm solve [ms] | Jacobian [ms] |")
     print("|---|---|---|---|")
     print(f"| smooth Reynolds | {smooth['dofs']} | {smooth['solve_ms']:.1f} | {smooth['jacobian_ms']:.1f} |")
-    print(f"| averaged Reynolds + Greenwood-Tripp | {rough['dofs']} | {rough['solve_ms']:.1f} | {rough['jacobian_ms']:.1f} |")
-    print(f"ratio rough/smooth: solve {rough['solve_ms'] / smooth['solve_ms']:.2f}, "
-          f"Jacobian {rough['jacobian_ms'] / smooth['jacobian_ms']:.2f}")
+    print(
+        f"| averaged Reynolds + Greenwood-Tripp | {rough['dofs']} | {rough['solve_ms']:.1f} | {rough['jacobian_ms']:.1f} |"
+    )
+    print(
+        f"ratio rough/smooth: solve {rough['solve_ms'] / smooth['solve_ms']:.2f}, "
+        f"Jacobian {rough['jacobian_ms'] / smooth['jacobian_ms']:.2f}"
+    )
 
 
 if __name__ == "__main__":

@@ -22,8 +22,12 @@ from solver.dynamics.joint import joint_from_case
 from solver.film.bearing import Kinematics
 
 ROOT = Path(__file__).resolve().parents[1]
-STATE = Kinematics(ecc=(-9.4719e-06, 2.1293e-06), ecc_rate=(2.6648e-05, 1.00379e-04), omega_journal=-27.2526,
-                   omega_bushing=0.0)  # bushing (rod) frame, SI
+STATE = Kinematics(
+    ecc=(-9.4719e-06, 2.1293e-06),
+    ecc_rate=(2.6648e-05, 1.00379e-04),
+    omega_journal=-27.2526,
+    omega_bushing=0.0,
+)  # bushing (rod) frame, SI
 SIZES = (0.15, 0.1, 0.07, 0.05, 0.035, 0.025)
 
 
@@ -38,13 +42,17 @@ def main() -> None:
             r = model.solve(STATE)
             rows.append((size, model.dofs, r.hydro_load, r.asperity_load, r.torque_journal, r.p_max))
     ref = rows[-1]
-    print("| mesh size / R | dofs | hydrodynamic load [N] | deviation | asperity load [N] | deviation | "
-          "pin friction torque [N m] | deviation | p_max [MPa] |")
+    print(
+        "| mesh size / R | dofs | hydrodynamic load [N] | deviation | asperity load [N] | deviation | "
+        "pin friction torque [N m] | deviation | p_max [MPa] |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for size, dofs, hydro, asperity, torque, p_max in rows:
-        print(f"| {size:g} | {dofs} | {hydro:.1f} | {100 * (hydro / ref[2] - 1):+.2f} % | {asperity:.2f} | "
-              f"{100 * (asperity / ref[3] - 1):+.3f} % | {torque:.5f} | {100 * (torque / ref[4] - 1):+.3f} % | "
-              f"{p_max / 1e6:.2f} |")
+        print(
+            f"| {size:g} | {dofs} | {hydro:.1f} | {100 * (hydro / ref[2] - 1):+.2f} % | {asperity:.2f} | "
+            f"{100 * (asperity / ref[3] - 1):+.3f} % | {torque:.5f} | {100 * (torque / ref[4] - 1):+.3f} % | "
+            f"{p_max / 1e6:.2f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -56,7 +56,9 @@ def metrics(path: Path) -> dict[str, float]:
     (README, Verification)."""
     with xr.open_dataset(path) as ds:
         t = ds.time.values
-        change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0])
+        change = float(
+            ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0]
+        )
         dissipated = float(ds.dissipated_energy[-1])
         audit = float(ds.input_work[-1]) - change - dissipated + float(ds.drift_work[-1])
         sampled = simpson(ds.dissipated_power.values, x=t)
@@ -66,12 +68,19 @@ def metrics(path: Path) -> dict[str, float]:
         last_change = float("nan")
         if friction is not None and len(friction) > 1:
             last_change = (friction[-1] - friction[-2]) / friction[-1]
-        return {"h_min_min": float(ds.h_min.min()), "friction_power_mean": float(ds.friction_power.mean()),
-                "friction_last_change": last_change,
-                "F_asperity_max": float(ds.F_asperity.max()), "p_max_max": float(ds.p_max.max()),
-                "cycles": int(ds.attrs["cycles"]), "periodic": ds.attrs["periodic"], "wall": float(ds.attrs["wall_time_s"]),
-                "energy_error": audit / dissipated, "energy_error_outputs": outputs / sampled,
-                "dissipated_J": dissipated}
+        return {
+            "h_min_min": float(ds.h_min.min()),
+            "friction_power_mean": float(ds.friction_power.mean()),
+            "friction_last_change": last_change,
+            "F_asperity_max": float(ds.F_asperity.max()),
+            "p_max_max": float(ds.p_max.max()),
+            "cycles": int(ds.attrs["cycles"]),
+            "periodic": ds.attrs["periodic"],
+            "wall": float(ds.attrs["wall_time_s"]),
+            "energy_error": audit / dissipated,
+            "energy_error_outputs": outputs / sampled,
+            "dissipated_J": dissipated,
+        }
 
 
 def main() -> None:
@@ -81,20 +90,37 @@ def main() -> None:
     parser.add_argument("--base-step", type=float, default=5.0)
     parser.add_argument("--base-rtol", type=float, default=1e-5)
     parser.add_argument("--max-cycles", type=int, default=3)
-    parser.add_argument("--periodic-tolerance", type=float, default=0.01,
-                        help="solver.periodic_tolerance of every variant (the change of the cycle minimum of h_min, "
-                             "/ clearance, below which a run is periodic)")
-    parser.add_argument("--periodic-friction-tolerance", type=float, default=None,
-                        help="solver.periodic_friction_tolerance of every variant (the relative change "
-                             "of the cycle-mean friction power that must hold as well; default: not checked)")
-    parser.add_argument("--no-base", action="store_true", help="skip the base run (run it in another process)")
+    parser.add_argument(
+        "--periodic-tolerance",
+        type=float,
+        default=0.01,
+        help="solver.periodic_tolerance of every variant (the change of the cycle minimum of h_min, "
+        "/ clearance, below which a run is periodic)",
+    )
+    parser.add_argument(
+        "--periodic-friction-tolerance",
+        type=float,
+        default=None,
+        help="solver.periodic_friction_tolerance of every variant (the relative change "
+        "of the cycle-mean friction power that must hold as well; default: not checked)",
+    )
+    parser.add_argument(
+        "--no-base", action="store_true", help="skip the base run (run it in another process)"
+    )
     parser.add_argument("--keep", action="store_true")
     parser.add_argument("--only", nargs="*", default=None, help="run only these variants (and the base)")
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="verify-engine-"))
-    base = {"joint": '"mixed-fem"', "max_cycles": args.max_cycles, "periodic_tolerance": args.periodic_tolerance,
-            "mesh_size": args.base_mesh,
-            "step_deg": args.base_step, "rtol": args.base_rtol, "field_angles_deg": "[]", "field_step_deg": 0}
+    base = {
+        "joint": '"mixed-fem"',
+        "max_cycles": args.max_cycles,
+        "periodic_tolerance": args.periodic_tolerance,
+        "mesh_size": args.base_mesh,
+        "step_deg": args.base_step,
+        "rtol": args.base_rtol,
+        "field_angles_deg": "[]",
+        "field_step_deg": 0,
+    }
     if args.periodic_friction_tolerance is not None:
         base["periodic_friction_tolerance"] = args.periodic_friction_tolerance
     variants = {
@@ -124,26 +150,36 @@ def main() -> None:
     if "base" not in rows:
         return
     b = rows["base"]
-    print(f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
-          f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} "
-          f"(cycles: {b['cycles']}, periodic: {b['periodic']})")
-    print("| variant | cycles | min h_min [um] | change | mean friction power [W] | change | friction's "
-          "change in the last cycle | max asperity force [N] | max p_max [MPa] | energy balance error "
-          "(audit; outputs' Simpson) | wall [s] |")
+    print(
+        f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
+        f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} "
+        f"(cycles: {b['cycles']}, periodic: {b['periodic']})"
+    )
+    print(
+        "| variant | cycles | min h_min [um] | change | mean friction power [W] | change | friction's "
+        "change in the last cycle | max asperity force [N] | max p_max [MPa] | energy balance error "
+        "(audit; outputs' Simpson) | wall [s] |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, r in rows.items():
         dh = (r["h_min_min"] / b["h_min_min"] - 1) * 100
         dp = (r["friction_power_mean"] / b["friction_power_mean"] - 1) * 100
-        print(f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
-              f"{dp:+.2f} % | {100 * r['friction_last_change']:+.2f} % | {r['F_asperity_max']:.0f} | "
-              f"{r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
-              f"({100 * r['energy_error_outputs']:+.2f} %) | {r['wall']:.0f} |")
+        print(
+            f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
+            f"{dp:+.2f} % | {100 * r['friction_last_change']:+.2f} % | {r['F_asperity_max']:.0f} | "
+            f"{r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
+            f"({100 * r['energy_error_outputs']:+.2f} %) | {r['wall']:.0f} |"
+        )
     if "viscosity x 2" not in rows or "roughness x 1.5" not in rows:
         return
     v, s = rows["viscosity x 2"], rows["roughness x 1.5"]
-    print(f"\ntrend viscosity x 2: min h_min {'larger' if v['h_min_min'] > b['h_min_min'] else 'NOT larger'}, "
-          f"max asperity force {'smaller' if v['F_asperity_max'] < b['F_asperity_max'] else 'NOT smaller'}")
-    print(f"trend roughness x 1.5: max asperity force {'larger' if s['F_asperity_max'] > b['F_asperity_max'] else 'NOT larger'}")
+    print(
+        f"\ntrend viscosity x 2: min h_min {'larger' if v['h_min_min'] > b['h_min_min'] else 'NOT larger'}, "
+        f"max asperity force {'smaller' if v['F_asperity_max'] < b['F_asperity_max'] else 'NOT smaller'}"
+    )
+    print(
+        f"trend roughness x 1.5: max asperity force {'larger' if s['F_asperity_max'] > b['F_asperity_max'] else 'NOT larger'}"
+    )
     if not args.keep:
         shutil.rmtree(work, ignore_errors=True)
 

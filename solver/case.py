@@ -110,7 +110,11 @@ class FieldSpec:
                 raise out_of_range(self.name, [f"{v:g}" for v in values], self.allowed())
             return
         if si_value is None or self.kind is not float:
-            if self.choices and si_value not in self.choices and not (si_value is None and self.default is None):
+            if (
+                self.choices
+                and si_value not in self.choices
+                and not (si_value is None and self.default is None)
+            ):
                 raise out_of_range(self.name, repr(si_value), self.allowed())
             return
         value = si_value / self.scale
@@ -123,8 +127,9 @@ class FieldSpec:
             raise out_of_range(self.name, f"{value:g}", self.allowed())
 
 
-def _f(section, key, attribute, default, scale=1.0, minimum=None, maximum=None, *, closed=False, unit="",
-       doc=""):
+def _f(
+    section, key, attribute, default, scale=1.0, minimum=None, maximum=None, *, closed=False, unit="", doc=""
+):
     """A float field; ``closed`` includes the bounds."""
     return FieldSpec(
         section, key, attribute, float, default, scale, minimum, maximum, not closed, None, unit, doc
@@ -137,192 +142,734 @@ FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("", "description", "description", str, "", doc="free text"),
     # [engine] -- DESIGN 3.7 frame: origin at the crank centre, +x from crank to piston, crank turns CCW
     _f("engine", "speed_rpm", "speed", 2000.0, RPM, 0.0, 30000.0, unit="rpm", doc="constant crank speed"),
-    FieldSpec("engine", "speed_file", "speed_file", Path, None,
-              doc="optional CSV `crank_angle_deg,speed_rpm` over 0-720 deg; replaces speed_rpm"),
+    FieldSpec(
+        "engine",
+        "speed_file",
+        "speed_file",
+        Path,
+        None,
+        doc="optional CSV `crank_angle_deg,speed_rpm` over 0-720 deg; replaces speed_rpm",
+    ),
     _f("engine", "bore_mm", "bore", 86.0, 1e-3, 0.0, unit="mm", doc="cylinder bore"),
-    _f("engine", "crank_radius_mm", "crank_radius", 43.0, 1e-3, 0.0, unit="mm",
-       doc="crank radius r (stroke = 2 r)"),
-    _f("engine", "rod_length_mm", "rod_length", 145.0, 1e-3, 0.0, unit="mm",
-       doc="connecting rod length l, big-end to small-end centre; > crank radius + |pin offset|"),
-    _f("engine", "pin_offset_mm", "pin_offset", 0.0, 1e-3, unit="mm",
-       doc="lateral (+y) offset of the piston pin from the cylinder axis"),
+    _f(
+        "engine",
+        "crank_radius_mm",
+        "crank_radius",
+        43.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="crank radius r (stroke = 2 r)",
+    ),
+    _f(
+        "engine",
+        "rod_length_mm",
+        "rod_length",
+        145.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="connecting rod length l, big-end to small-end centre; > crank radius + |pin offset|",
+    ),
+    _f(
+        "engine",
+        "pin_offset_mm",
+        "pin_offset",
+        0.0,
+        1e-3,
+        unit="mm",
+        doc="lateral (+y) offset of the piston pin from the cylinder axis",
+    ),
     _f("engine", "rod_mass_kg", "rod_mass", 0.55, 1.0, 0.0, unit="kg", doc="connecting rod mass"),
-    _f("engine", "rod_inertia_kg_m2", "rod_inertia", 2.2e-3, 1.0, 0.0, unit="kg m^2",
-       doc="rod moment of inertia about its centre of mass"),
-    _f("engine", "rod_cg_from_big_end_mm", "rod_cg_from_big_end", 35.0, 1e-3, 0.0, unit="mm",
-       closed=True,
-       doc="distance of the rod's centre of mass from the big-end centre, on the rod axis; <= rod length"),
-    _f("engine", "piston_mass_kg", "piston_mass", 0.45, 1.0, 0.0, unit="kg",
-       doc="piston assembly mass (pin, rings included); centre of mass at the pin"),
-    _f("engine", "crank_mass_kg", "crank_mass", 0.0, 1.0, 0.0, closed=True, unit="kg",
-       doc="crank throw mass, centre of mass on the crank axis (only its weight loads the main bearing)"),
-    _f("engine", "crank_inertia_kg_m2", "crank_inertia", 0.0, 1.0, 0.0, closed=True, unit="kg m^2",
-       doc="crank inertia about its axis (matters with a speed trace)"),
+    _f(
+        "engine",
+        "rod_inertia_kg_m2",
+        "rod_inertia",
+        2.2e-3,
+        1.0,
+        0.0,
+        unit="kg m^2",
+        doc="rod moment of inertia about its centre of mass",
+    ),
+    _f(
+        "engine",
+        "rod_cg_from_big_end_mm",
+        "rod_cg_from_big_end",
+        35.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        closed=True,
+        doc="distance of the rod's centre of mass from the big-end centre, on the rod axis; <= rod length",
+    ),
+    _f(
+        "engine",
+        "piston_mass_kg",
+        "piston_mass",
+        0.45,
+        1.0,
+        0.0,
+        unit="kg",
+        doc="piston assembly mass (pin, rings included); centre of mass at the pin",
+    ),
+    _f(
+        "engine",
+        "crank_mass_kg",
+        "crank_mass",
+        0.0,
+        1.0,
+        0.0,
+        closed=True,
+        unit="kg",
+        doc="crank throw mass, centre of mass on the crank axis (only its weight loads the main bearing)",
+    ),
+    _f(
+        "engine",
+        "crank_inertia_kg_m2",
+        "crank_inertia",
+        0.0,
+        1.0,
+        0.0,
+        closed=True,
+        unit="kg m^2",
+        doc="crank inertia about its axis (matters with a speed trace)",
+    ),
     FieldSpec("engine", "gravity", "gravity", bool, True, doc="gravity along -x (9.80665 m/s^2)"),
     # [gas]
-    FieldSpec("gas", "model", "model", str, None, choices=("single-zone", "motored", "trace", "none"),
-              doc="cylinder pressure: single-zone model, motored (no combustion), CSV trace, or none "
-                  "(p = crankcase pressure); default: trace if pressure_file is given, else single-zone"),
-    FieldSpec("gas", "pressure_file", "pressure_file", Path, None,
-              doc="CSV `crank_angle_deg,pressure_bar` (or `pressure_Pa`, `pressure_MPa`), absolute, "
-                  "0-720 deg"),
+    FieldSpec(
+        "gas",
+        "model",
+        "model",
+        str,
+        None,
+        choices=("single-zone", "motored", "trace", "none"),
+        doc="cylinder pressure: single-zone model, motored (no combustion), CSV trace, or none "
+        "(p = crankcase pressure); default: trace if pressure_file is given, else single-zone",
+    ),
+    FieldSpec(
+        "gas",
+        "pressure_file",
+        "pressure_file",
+        Path,
+        None,
+        doc="CSV `crank_angle_deg,pressure_bar` (or `pressure_Pa`, `pressure_MPa`), absolute, 0-720 deg",
+    ),
     _f("gas", "compression_ratio", "compression_ratio", 10.5, 1.0, 1.0, 40.0, doc="(V_c + V_d) / V_c"),
-    _f("gas", "polytropic_exponent", "polytropic_exponent", 1.32, 1.0, 1.0, 5.0 / 3.0,
-       doc="n of p V^n = const for compression and expansion"),
-    _f("gas", "peak_pressure_bar", "peak_pressure", 60.0, BAR, 0.0, unit="bar",
-       doc="target peak cylinder pressure (absolute); default unless imep_bar is given"),
-    _f("gas", "imep_bar", "imep", None, BAR, 0.0, unit="bar",
-       doc="target net IMEP (instead of peak_pressure_bar)"),
-    _f("gas", "combustion_start_deg", "combustion_start", 350.0, DEG, 180.0, 540.0, unit="deg",
-       doc="start of heat release (360 = firing TDC)"),
-    _f("gas", "combustion_duration_deg", "combustion_duration", 50.0, DEG, 0.0, 360.0, unit="deg",
-       doc="Wiebe combustion duration; start + duration < 540"),
+    _f(
+        "gas",
+        "polytropic_exponent",
+        "polytropic_exponent",
+        1.32,
+        1.0,
+        1.0,
+        5.0 / 3.0,
+        doc="n of p V^n = const for compression and expansion",
+    ),
+    _f(
+        "gas",
+        "peak_pressure_bar",
+        "peak_pressure",
+        60.0,
+        BAR,
+        0.0,
+        unit="bar",
+        doc="target peak cylinder pressure (absolute); default unless imep_bar is given",
+    ),
+    _f(
+        "gas",
+        "imep_bar",
+        "imep",
+        None,
+        BAR,
+        0.0,
+        unit="bar",
+        doc="target net IMEP (instead of peak_pressure_bar)",
+    ),
+    _f(
+        "gas",
+        "combustion_start_deg",
+        "combustion_start",
+        350.0,
+        DEG,
+        180.0,
+        540.0,
+        unit="deg",
+        doc="start of heat release (360 = firing TDC)",
+    ),
+    _f(
+        "gas",
+        "combustion_duration_deg",
+        "combustion_duration",
+        50.0,
+        DEG,
+        0.0,
+        360.0,
+        unit="deg",
+        doc="Wiebe combustion duration; start + duration < 540",
+    ),
     _f("gas", "wiebe_a", "wiebe_a", 5.0, 1.0, 0.0, 50.0, doc="Wiebe efficiency parameter a"),
     _f("gas", "wiebe_m", "wiebe_m", 2.0, 1.0, -1.0, 10.0, doc="Wiebe form factor m"),
-    _f("gas", "intake_pressure_bar", "intake_pressure", 1.0, BAR, 0.0, unit="bar",
-       doc="intake pressure (0-180 deg and start of compression), absolute"),
-    _f("gas", "exhaust_pressure_bar", "exhaust_pressure", 1.1, BAR, 0.0, unit="bar",
-       doc="exhaust pressure (after the blowdown, to the valve overlap), absolute"),
-    _f("gas", "exhaust_opening_deg", "exhaust_opening", 490.0, DEG, 360.0, 720.0, unit="deg",
-       doc="exhaust valve opening (130 deg after firing TDC); from there the pressure falls smoothly to the "
-           "exhaust pressure (540 with blowdown and overlap 0: the seed's step model)"),
-    _f("gas", "blowdown_duration_deg", "blowdown_duration", 70.0, DEG, 0.0, 360.0, closed=True, unit="deg",
-       doc="crank angle over which the blowdown brings the pressure to the exhaust pressure"),
-    _f("gas", "valve_overlap_deg", "valve_overlap", 40.0, DEG, 0.0, 180.0, closed=True, unit="deg",
-       doc="valve overlap centred on 720 deg: the exhaust pressure passes smoothly to the intake pressure"),
-    _f("gas", "crankcase_pressure_bar", "crankcase_pressure", 1.0, BAR, 0.0, unit="bar", closed=True,
-       doc="crankcase pressure under the piston, absolute"),
+    _f(
+        "gas",
+        "intake_pressure_bar",
+        "intake_pressure",
+        1.0,
+        BAR,
+        0.0,
+        unit="bar",
+        doc="intake pressure (0-180 deg and start of compression), absolute",
+    ),
+    _f(
+        "gas",
+        "exhaust_pressure_bar",
+        "exhaust_pressure",
+        1.1,
+        BAR,
+        0.0,
+        unit="bar",
+        doc="exhaust pressure (after the blowdown, to the valve overlap), absolute",
+    ),
+    _f(
+        "gas",
+        "exhaust_opening_deg",
+        "exhaust_opening",
+        490.0,
+        DEG,
+        360.0,
+        720.0,
+        unit="deg",
+        doc="exhaust valve opening (130 deg after firing TDC); from there the pressure falls smoothly to the "
+        "exhaust pressure (540 with blowdown and overlap 0: the seed's step model)",
+    ),
+    _f(
+        "gas",
+        "blowdown_duration_deg",
+        "blowdown_duration",
+        70.0,
+        DEG,
+        0.0,
+        360.0,
+        closed=True,
+        unit="deg",
+        doc="crank angle over which the blowdown brings the pressure to the exhaust pressure",
+    ),
+    _f(
+        "gas",
+        "valve_overlap_deg",
+        "valve_overlap",
+        40.0,
+        DEG,
+        0.0,
+        180.0,
+        closed=True,
+        unit="deg",
+        doc="valve overlap centred on 720 deg: the exhaust pressure passes smoothly to the intake pressure",
+    ),
+    _f(
+        "gas",
+        "crankcase_pressure_bar",
+        "crankcase_pressure",
+        1.0,
+        BAR,
+        0.0,
+        unit="bar",
+        closed=True,
+        doc="crankcase pressure under the piston, absolute",
+    ),
     # [small_end]
     _f("small_end", "pin_radius_mm", "pin_radius", 10.0, 1e-3, 0.0, unit="mm", doc="piston pin radius R"),
     _f("small_end", "width_mm", "width", 20.0, 1e-3, 0.0, unit="mm", doc="bushing width B"),
-    _f("small_end", "clearance_um", "clearance", 10.0, 1e-6, 0.0, unit="um",
-       doc="radial clearance c; < pin radius"),
-    FieldSpec("small_end", "elastic", "elastic", str, "none", choices=("none", "winkler", "fe"),
-              doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
-                  "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-                  "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an engine cycle "
-                  "costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are nodal: one LU of "
-                  "the whole coupled matrix; see the README's benchmarks)"),
-    _f("small_end", "bushing_thickness_mm", "bushing_thickness", 1.5, 1e-3, 0.0, unit="mm",
-       doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)"),
-    _f("small_end", "eye_outer_radius_mm", "eye_outer_radius", 17.0, 1e-3, 0.0, unit="mm",
-       doc="outer radius of the rod's eye; > pin radius + bushing thickness"),
-    _f("small_end", "E_eye_GPa", "E_eye", 210.0, 1e9, 0.0, unit="GPa", doc="Young's modulus of the rod (eye)"),
+    _f(
+        "small_end",
+        "clearance_um",
+        "clearance",
+        10.0,
+        1e-6,
+        0.0,
+        unit="um",
+        doc="radial clearance c; < pin radius",
+    ),
+    FieldSpec(
+        "small_end",
+        "elastic",
+        "elastic",
+        str,
+        "none",
+        choices=("none", "winkler", "fe"),
+        doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
+        "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
+        "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an engine cycle "
+        "costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are nodal: one LU of "
+        "the whole coupled matrix; see the README's benchmarks)",
+    ),
+    _f(
+        "small_end",
+        "bushing_thickness_mm",
+        "bushing_thickness",
+        1.5,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)",
+    ),
+    _f(
+        "small_end",
+        "eye_outer_radius_mm",
+        "eye_outer_radius",
+        17.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="outer radius of the rod's eye; > pin radius + bushing thickness",
+    ),
+    _f(
+        "small_end", "E_eye_GPa", "E_eye", 210.0, 1e9, 0.0, unit="GPa", doc="Young's modulus of the rod (eye)"
+    ),
     _f("small_end", "nu_eye", "nu_eye", 0.3, 1.0, 0.0, 0.5, doc="Poisson ratio of the rod (eye)"),
-    _f("small_end", "shank_half_angle_deg", "shank_half_angle", 30.0, DEG, 0.0, 90.0, unit="deg",
-       doc="half angle of the arc where the eye joins the shank (clamped in the fe model; the shank is "
-           "opposite the top of the eye, toward the big end)"),
-    FieldSpec("small_end", "compliance_modes", "compliance_modes", int, 72, minimum=1, maximum=360,
-              doc="fe: modes of the compliance kept (its truncation error is in run.log)"),
+    _f(
+        "small_end",
+        "shank_half_angle_deg",
+        "shank_half_angle",
+        30.0,
+        DEG,
+        0.0,
+        90.0,
+        unit="deg",
+        doc="half angle of the arc where the eye joins the shank (clamped in the fe model; the shank is "
+        "opposite the top of the eye, toward the big end)",
+    ),
+    FieldSpec(
+        "small_end",
+        "compliance_modes",
+        "compliance_modes",
+        int,
+        72,
+        minimum=1,
+        maximum=360,
+        doc="fe: modes of the compliance kept (its truncation error is in run.log)",
+    ),
     # [oil]
-    _f("oil", "viscosity_Pa_s", "viscosity", 0.010, 1.0, 0.0, unit="Pa s",
-       doc="dynamic viscosity in the film; or give the oil's data below instead (not both)"),
-    FieldSpec("oil", "grade", "grade", str, None, choices=tuple(GRADES),
-              doc="SAE grade with typical data-sheet values (solver/oil.py cites them); instead of viscosity_Pa_s"),
-    _f("oil", "kinematic_viscosity_40C_cSt", "kinematic_viscosity_40C", None, 1.0, MIN_KINEMATIC_VISCOSITY,
-       closed=True, unit="mm^2/s", doc="data sheet: kinematic viscosity at 40 C (with the 100 C value and density)"),
-    _f("oil", "kinematic_viscosity_100C_cSt", "kinematic_viscosity_100C", None, 1.0, MIN_KINEMATIC_VISCOSITY,
-       closed=True, unit="mm^2/s", doc="data sheet: kinematic viscosity at 100 C; < the 40 C value"),
-    _f("oil", "density_15C_kg_m3", "density_15C", None, 1.0, 700.0, 1200.0, unit="kg/m^3",
-       doc="data sheet: density at 15 C"),
-    _f("oil", "temperature_C", "temperature", 100.0, 1.0, -40.0, 250.0, closed=True, unit="C",
-       doc="with grade or the data sheet: the film temperature (thermal = isothermal) or the supply "
-           "temperature (thermal = effective); viscosity by ASTM D341 (Walther), density by linear "
-           "expansion"),
-    FieldSpec("oil", "thermal", "thermal", str, "isothermal", choices=("isothermal", "effective"),
-              doc="film temperature: isothermal (temperature_C) or effective (from the heat balance of the "
-                  "cycle: (1 - heat_to_solids) x dissipated power = density x specific heat x side flow x "
-                  "rise above temperature_C, iterated with the cycles; needs grade or the data sheet)"),
-    _f("oil", "specific_heat_J_kgK", "specific_heat", 2000.0, 1.0, 500.0, 5000.0, unit="J/(kg K)",
-       doc="thermal = effective: the oil's specific heat (unused engine oil: 1880 at 20 C, 2050 at 60 C, "
-           "2220 at 100 C, Cengel & Boles' property tables; the default is a typical value, an assumption)"),
-    _f("oil", "heat_to_solids", "heat_to_solids", 0.2, 1.0, 0.0, 0.95, closed=True,
-       doc="thermal = effective: share of the dissipated power conducted away through pin and rod instead of "
-           "carried by the side flow (an assumption, not computed; 0: adiabatic film)"),
-    _f("oil", "thermal_tolerance", "thermal_tolerance", 1e-6, 1.0, 0.0, 0.1,
-       doc="thermal = effective: the run is thermally consistent when |heat into the oil - heat carried by "
-           "the side flow| <= this x heat into the oil"),
-    FieldSpec("oil", "piezoviscosity", "piezoviscosity", str, "none", choices=("none", "barus", "roelands"),
-              doc="pressure dependence of the viscosity: none, barus (mu0 exp(alpha p)) or roelands (with the "
-                  "initial slope alpha); in the film and the friction. With a rigid bushing the pressure can "
-                  "become unbounded: use it with small_end.elastic"),
-    _f("oil", "pressure_viscosity_GPa_inv", "pressure_viscosity", 15.0, 1e-9, 0.0, 100.0, unit="1/GPa",
-       doc="pressure-viscosity coefficient alpha (engine oils: 10-20 1/GPa)"),
-    _f("oil", "cavitation_pressure_bar", "cavitation_pressure", 0.0, BAR, -1.01325, closed=True, unit="bar",
-       doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)"),
-    FieldSpec("oil", "cavitation", "cavitation", str, "reynolds", choices=("reynolds", "jfo"),
-              doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
-                  "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
-                  "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In an engine "
-                  "run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, rtol 1e-7, "
-                  "as `cases/reference-2000rpm-jfo`; the README's refinement study)"),
-    FieldSpec("oil", "inlet", "inlet", str, "none", choices=INLETS,
-              doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
-                  "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
-                  "round hole), axial-groove (a rectangular axial groove) or circumferential-groove (a full "
-                  "circumferential groove), each centred on the mid-plane (below)"),
-    _f("oil", "supply_hole_angle_deg", "supply_hole_angle", 0.0, DEG, -360.0, 360.0, unit="deg",
-       doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the small end)"),
-    _f("oil", "supply_hole_diameter_mm", "supply_hole_diameter", 3.0, 1e-3, 0.0, unit="mm",
-       doc="with inlet = hole: hole diameter; < bushing width and < pin radius"),
-    _f("oil", "groove_angle_deg", "groove_angle", 0.0, DEG, -360.0, 360.0, unit="deg",
-       doc="with inlet = axial-groove: angle of the groove's centre in the rod frame from the rod axis (0 = top "
-           "of the small end)"),
-    _f("oil", "groove_arc_deg", "groove_arc", 30.0, DEG, 0.0, 360.0, unit="deg",
-       doc="with inlet = axial-groove: the groove's circumferential extent"),
-    _f("oil", "groove_length_mm", "groove_length", 10.0, 1e-3, 0.0, unit="mm",
-       doc="with inlet = axial-groove: the groove's axial length; < bushing width"),
-    _f("oil", "groove_width_mm", "groove_width", 3.0, 1e-3, 0.0, unit="mm",
-       doc="with inlet = circumferential-groove: the groove's axial width; < bushing width"),
-    _f("oil", "supply_pressure_bar", "supply_pressure", 0.0, BAR, 0.0, 1000.0, closed=True, unit="bar",
-       doc="with inlet = hole or a groove: oil pressure in the supply, gauge"),
+    _f(
+        "oil",
+        "viscosity_Pa_s",
+        "viscosity",
+        0.010,
+        1.0,
+        0.0,
+        unit="Pa s",
+        doc="dynamic viscosity in the film; or give the oil's data below instead (not both)",
+    ),
+    FieldSpec(
+        "oil",
+        "grade",
+        "grade",
+        str,
+        None,
+        choices=tuple(GRADES),
+        doc="SAE grade with typical data-sheet values (solver/oil.py cites them); instead of viscosity_Pa_s",
+    ),
+    _f(
+        "oil",
+        "kinematic_viscosity_40C_cSt",
+        "kinematic_viscosity_40C",
+        None,
+        1.0,
+        MIN_KINEMATIC_VISCOSITY,
+        closed=True,
+        unit="mm^2/s",
+        doc="data sheet: kinematic viscosity at 40 C (with the 100 C value and density)",
+    ),
+    _f(
+        "oil",
+        "kinematic_viscosity_100C_cSt",
+        "kinematic_viscosity_100C",
+        None,
+        1.0,
+        MIN_KINEMATIC_VISCOSITY,
+        closed=True,
+        unit="mm^2/s",
+        doc="data sheet: kinematic viscosity at 100 C; < the 40 C value",
+    ),
+    _f(
+        "oil",
+        "density_15C_kg_m3",
+        "density_15C",
+        None,
+        1.0,
+        700.0,
+        1200.0,
+        unit="kg/m^3",
+        doc="data sheet: density at 15 C",
+    ),
+    _f(
+        "oil",
+        "temperature_C",
+        "temperature",
+        100.0,
+        1.0,
+        -40.0,
+        250.0,
+        closed=True,
+        unit="C",
+        doc="with grade or the data sheet: the film temperature (thermal = isothermal) or the supply "
+        "temperature (thermal = effective); viscosity by ASTM D341 (Walther), density by linear "
+        "expansion",
+    ),
+    FieldSpec(
+        "oil",
+        "thermal",
+        "thermal",
+        str,
+        "isothermal",
+        choices=("isothermal", "effective"),
+        doc="film temperature: isothermal (temperature_C) or effective (from the heat balance of the "
+        "cycle: (1 - heat_to_solids) x dissipated power = density x specific heat x side flow x "
+        "rise above temperature_C, iterated with the cycles; needs grade or the data sheet)",
+    ),
+    _f(
+        "oil",
+        "specific_heat_J_kgK",
+        "specific_heat",
+        2000.0,
+        1.0,
+        500.0,
+        5000.0,
+        unit="J/(kg K)",
+        doc="thermal = effective: the oil's specific heat (unused engine oil: 1880 at 20 C, 2050 at 60 C, "
+        "2220 at 100 C, Cengel & Boles' property tables; the default is a typical value, an assumption)",
+    ),
+    _f(
+        "oil",
+        "heat_to_solids",
+        "heat_to_solids",
+        0.2,
+        1.0,
+        0.0,
+        0.95,
+        closed=True,
+        doc="thermal = effective: share of the dissipated power conducted away through pin and rod instead of "
+        "carried by the side flow (an assumption, not computed; 0: adiabatic film)",
+    ),
+    _f(
+        "oil",
+        "thermal_tolerance",
+        "thermal_tolerance",
+        1e-6,
+        1.0,
+        0.0,
+        0.1,
+        doc="thermal = effective: the run is thermally consistent when |heat into the oil - heat carried by "
+        "the side flow| <= this x heat into the oil",
+    ),
+    FieldSpec(
+        "oil",
+        "piezoviscosity",
+        "piezoviscosity",
+        str,
+        "none",
+        choices=("none", "barus", "roelands"),
+        doc="pressure dependence of the viscosity: none, barus (mu0 exp(alpha p)) or roelands (with the "
+        "initial slope alpha); in the film and the friction. With a rigid bushing the pressure can "
+        "become unbounded: use it with small_end.elastic",
+    ),
+    _f(
+        "oil",
+        "pressure_viscosity_GPa_inv",
+        "pressure_viscosity",
+        15.0,
+        1e-9,
+        0.0,
+        100.0,
+        unit="1/GPa",
+        doc="pressure-viscosity coefficient alpha (engine oils: 10-20 1/GPa)",
+    ),
+    _f(
+        "oil",
+        "cavitation_pressure_bar",
+        "cavitation_pressure",
+        0.0,
+        BAR,
+        -1.01325,
+        closed=True,
+        unit="bar",
+        doc="cavitation pressure, gauge (relative to the ambient pressure at the bushing edges)",
+    ),
+    FieldSpec(
+        "oil",
+        "cavitation",
+        "cavitation",
+        str,
+        "reynolds",
+        choices=("reynolds", "jfo"),
+        doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
+        "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
+        "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In an engine "
+        "run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, rtol 1e-7, "
+        "as `cases/reference-2000rpm-jfo`; the README's refinement study)",
+    ),
+    FieldSpec(
+        "oil",
+        "inlet",
+        "inlet",
+        str,
+        "none",
+        choices=INLETS,
+        doc="oil inlet of the small end: none (cavitation alone decides), max-gap (ambient pressure "
+        "along the line of maximum film thickness), or an oil supply at supply_pressure_bar: hole (a "
+        "round hole), axial-groove (a rectangular axial groove) or circumferential-groove (a full "
+        "circumferential groove), each centred on the mid-plane (below)",
+    ),
+    _f(
+        "oil",
+        "supply_hole_angle_deg",
+        "supply_hole_angle",
+        0.0,
+        DEG,
+        -360.0,
+        360.0,
+        unit="deg",
+        doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the small end)",
+    ),
+    _f(
+        "oil",
+        "supply_hole_diameter_mm",
+        "supply_hole_diameter",
+        3.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with inlet = hole: hole diameter; < bushing width and < pin radius",
+    ),
+    _f(
+        "oil",
+        "groove_angle_deg",
+        "groove_angle",
+        0.0,
+        DEG,
+        -360.0,
+        360.0,
+        unit="deg",
+        doc="with inlet = axial-groove: angle of the groove's centre in the rod frame from the rod axis (0 = top "
+        "of the small end)",
+    ),
+    _f(
+        "oil",
+        "groove_arc_deg",
+        "groove_arc",
+        30.0,
+        DEG,
+        0.0,
+        360.0,
+        unit="deg",
+        doc="with inlet = axial-groove: the groove's circumferential extent",
+    ),
+    _f(
+        "oil",
+        "groove_length_mm",
+        "groove_length",
+        10.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with inlet = axial-groove: the groove's axial length; < bushing width",
+    ),
+    _f(
+        "oil",
+        "groove_width_mm",
+        "groove_width",
+        3.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with inlet = circumferential-groove: the groove's axial width; < bushing width",
+    ),
+    _f(
+        "oil",
+        "supply_pressure_bar",
+        "supply_pressure",
+        0.0,
+        BAR,
+        0.0,
+        1000.0,
+        closed=True,
+        unit="bar",
+        doc="with inlet = hole or a groove: oil pressure in the supply, gauge",
+    ),
     # [surface]
-    _f("surface", "sigma_pin_um", "sigma_pin", 0.1, 1e-6, 0.0, closed=True, unit="um",
-       doc="pin roughness Rq"),
-    _f("surface", "sigma_bushing_um", "sigma_bushing", 0.3, 1e-6, 0.0, closed=True, unit="um",
-       doc="bushing roughness Rq (composite sigma must be > 0)"),
-    _f("surface", "peklenik_gamma", "peklenik_gamma", 1.0, 1.0, 0.0,
-       doc="Peklenik surface pattern parameter"),
+    _f(
+        "surface", "sigma_pin_um", "sigma_pin", 0.1, 1e-6, 0.0, closed=True, unit="um", doc="pin roughness Rq"
+    ),
+    _f(
+        "surface",
+        "sigma_bushing_um",
+        "sigma_bushing",
+        0.3,
+        1e-6,
+        0.0,
+        closed=True,
+        unit="um",
+        doc="bushing roughness Rq (composite sigma must be > 0)",
+    ),
+    _f(
+        "surface", "peklenik_gamma", "peklenik_gamma", 1.0, 1.0, 0.0, doc="Peklenik surface pattern parameter"
+    ),
     _f("surface", "eta_beta_sigma", "eta_beta_sigma", 0.05, 1.0, 0.0, doc="Greenwood-Tripp eta beta sigma"),
     _f("surface", "sigma_over_beta", "sigma_over_beta", 0.001, 1.0, 0.0, doc="Greenwood-Tripp sigma / beta"),
     _f("surface", "E_pin_GPa", "E_pin", 210.0, 1e9, 0.0, unit="GPa", doc="pin Young's modulus"),
     _f("surface", "nu_pin", "nu_pin", 0.3, 1.0, -1.0, 0.5, doc="pin Poisson ratio"),
     _f("surface", "E_bushing_GPa", "E_bushing", 115.0, 1e9, 0.0, unit="GPa", doc="bushing Young's modulus"),
     _f("surface", "nu_bushing", "nu_bushing", 0.33, 1.0, -1.0, 0.5, doc="bushing Poisson ratio"),
-    _f("surface", "composite_modulus_GPa", "composite_modulus", None, 1e9, 0.0, unit="GPa",
-       doc="composite modulus E' (default: from the moduli and Poisson ratios, DESIGN 3.3)"),
-    _f("surface", "asperity_friction", "asperity_friction", 0.1, 1.0, 0.0, 2.0, closed=True,
-       doc="asperity friction coefficient (also the Coulomb coefficient of the dry joint)"),
-    _f("surface", "restitution", "restitution", 0.9, 1.0, 0.0, 1.0, closed=True,
-       doc="coefficient of restitution of the dry (Lankarani-Nikravesh) joint"),
-    _f("surface", "impact_speed_m_s", "impact_speed", 0.1, 1.0, 0.0, unit="m/s",
-       doc="reference impact speed of the dry joint's hysteresis damping"),
+    _f(
+        "surface",
+        "composite_modulus_GPa",
+        "composite_modulus",
+        None,
+        1e9,
+        0.0,
+        unit="GPa",
+        doc="composite modulus E' (default: from the moduli and Poisson ratios, DESIGN 3.3)",
+    ),
+    _f(
+        "surface",
+        "asperity_friction",
+        "asperity_friction",
+        0.1,
+        1.0,
+        0.0,
+        2.0,
+        closed=True,
+        doc="asperity friction coefficient (also the Coulomb coefficient of the dry joint)",
+    ),
+    _f(
+        "surface",
+        "restitution",
+        "restitution",
+        0.9,
+        1.0,
+        0.0,
+        1.0,
+        closed=True,
+        doc="coefficient of restitution of the dry (Lankarani-Nikravesh) joint",
+    ),
+    _f(
+        "surface",
+        "impact_speed_m_s",
+        "impact_speed",
+        0.1,
+        1.0,
+        0.0,
+        unit="m/s",
+        doc="reference impact speed of the dry joint's hysteresis damping",
+    ),
     # [solver]
-    _f("solver", "step_deg", "step", 1.0, DEG, 0.0, 10.0, closed=False, unit="deg",
-       doc="crank-angle step of the outputs; 720 / step_deg must be an integer"),
-    FieldSpec("solver", "joint", "joint", str, "mixed-fem", choices=("mixed-fem", "short-bearing", "dry", "ideal"),
-              doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal"),
-    _f("solver", "mesh_size", "mesh_size", None, 1.0, 0.0, 1.0,
-       doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the half width"),
+    _f(
+        "solver",
+        "step_deg",
+        "step",
+        1.0,
+        DEG,
+        0.0,
+        10.0,
+        closed=False,
+        unit="deg",
+        doc="crank-angle step of the outputs; 720 / step_deg must be an integer",
+    ),
+    FieldSpec(
+        "solver",
+        "joint",
+        "joint",
+        str,
+        "mixed-fem",
+        choices=("mixed-fem", "short-bearing", "dry", "ideal"),
+        doc="small-end model: finite-element mixed lubrication, Ocvirk short bearing, dry contact, or ideal",
+    ),
+    _f(
+        "solver",
+        "mesh_size",
+        "mesh_size",
+        None,
+        1.0,
+        0.0,
+        1.0,
+        doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the half width",
+    ),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
-    FieldSpec("solver", "film_fraction_transport", "film_fraction_transport", str, "limited",
-              choices=("limited", "upwind"),
-              doc="oil.cavitation = jfo: the film fraction's transport, limited (second order, flux-corrected "
-                  "upwinding; the default) or upwind (first order: the scheme before 2026-11-26)"),
-    FieldSpec("solver", "max_cycles", "max_cycles", int, 4, minimum=1, maximum=100,
-              doc="at most this many 720 deg cycles (the last one is reported)"),
-    _f("solver", "periodic_tolerance", "periodic_tolerance", 0.01, 1.0, 0.0, 1.0,
-       doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance"),
-    _f("solver", "periodic_friction_tolerance", "periodic_friction_tolerance", None, 1.0, 0.0, 1.0,
-       doc="also require the cycle-mean friction power to change by less than this fraction of itself from "
-           "one cycle to the next (absent: not checked); a JFO film's min h_min can settle cycles before its "
-           "friction"),
-    FieldSpec("solver", "field_angles_deg", "field_angles", list, [0.0, 180.0, 360.0, 380.0, 540.0], DEG, 0.0, 720.0,
-              False, doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)"),
-    _f("solver", "field_step_deg", "field_step", 5.0, DEG, 0.0, 720.0, closed=True, unit="deg",
-       doc="crank-angle step of the ParaView time series of the film fields (rounded to a multiple of step_deg, at least one; 0: none)"),
-    _f("solver", "slip_regularisation_m_s", "slip_regularisation", 1e-3, 1.0, 0.0, unit="m/s",
-       doc="sliding speed below which asperity and Coulomb friction are smoothed"),
+    FieldSpec(
+        "solver",
+        "film_fraction_transport",
+        "film_fraction_transport",
+        str,
+        "limited",
+        choices=("limited", "upwind"),
+        doc="oil.cavitation = jfo: the film fraction's transport, limited (second order, flux-corrected "
+        "upwinding; the default) or upwind (first order: the scheme before 2026-11-26)",
+    ),
+    FieldSpec(
+        "solver",
+        "max_cycles",
+        "max_cycles",
+        int,
+        4,
+        minimum=1,
+        maximum=100,
+        doc="at most this many 720 deg cycles (the last one is reported)",
+    ),
+    _f(
+        "solver",
+        "periodic_tolerance",
+        "periodic_tolerance",
+        0.01,
+        1.0,
+        0.0,
+        1.0,
+        doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance",
+    ),
+    _f(
+        "solver",
+        "periodic_friction_tolerance",
+        "periodic_friction_tolerance",
+        None,
+        1.0,
+        0.0,
+        1.0,
+        doc="also require the cycle-mean friction power to change by less than this fraction of itself from "
+        "one cycle to the next (absent: not checked); a JFO film's min h_min can settle cycles before its "
+        "friction",
+    ),
+    FieldSpec(
+        "solver",
+        "field_angles_deg",
+        "field_angles",
+        list,
+        [0.0, 180.0, 360.0, 380.0, 540.0],
+        DEG,
+        0.0,
+        720.0,
+        False,
+        doc="crank angles of the ParaView fields (pressure, film thickness, asperity pressure)",
+    ),
+    _f(
+        "solver",
+        "field_step_deg",
+        "field_step",
+        5.0,
+        DEG,
+        0.0,
+        720.0,
+        closed=True,
+        unit="deg",
+        doc="crank-angle step of the ParaView time series of the film fields (rounded to a multiple of step_deg, at least one; 0: none)",
+    ),
+    _f(
+        "solver",
+        "slip_regularisation_m_s",
+        "slip_regularisation",
+        1e-3,
+        1.0,
+        0.0,
+        unit="m/s",
+        doc="sliding speed below which asperity and Coulomb friction are smoothed",
+    ),
 )
 
 SECTIONS = ("engine", "gas", "small_end", "oil", "surface", "solver")
@@ -379,12 +926,14 @@ class Engine:
         limit = self.crank_radius + abs(self.pin_offset)
         if not self.rod_length > limit:
             raise out_of_range(
-                "engine.rod_length_mm", f"{self.rod_length * 1e3:g}",
+                "engine.rod_length_mm",
+                f"{self.rod_length * 1e3:g}",
                 f"> crank_radius_mm + |pin_offset_mm| = {limit * 1e3:g}",
             )
         if not self.rod_cg_from_big_end <= self.rod_length:
             raise out_of_range(
-                "engine.rod_cg_from_big_end_mm", f"{self.rod_cg_from_big_end * 1e3:g}",
+                "engine.rod_cg_from_big_end_mm",
+                f"{self.rod_cg_from_big_end * 1e3:g}",
                 f"[0, rod_length_mm = {self.rod_length * 1e3:g}]",
             )
 
@@ -423,14 +972,18 @@ class Gas:
         end = self.combustion_start + self.combustion_duration
         if not end < self.exhaust_opening:
             raise out_of_range(
-                "gas.combustion_duration_deg", f"{self.combustion_duration / DEG:g}",
+                "gas.combustion_duration_deg",
+                f"{self.combustion_duration / DEG:g}",
                 f"< {(self.exhaust_opening - self.combustion_start) / DEG:g} (combustion must end before the "
                 f"exhaust opens, gas.exhaust_opening_deg = {self.exhaust_opening / DEG:g})",
             )
         if not self.exhaust_opening + self.blowdown_duration + self.valve_overlap / 2 <= 4.0 * math.pi:
-            raise out_of_range("gas.blowdown_duration_deg", f"{self.blowdown_duration / DEG:g}",
-                               f"<= {720.0 - self.exhaust_opening / DEG - self.valve_overlap / DEG / 2:g} (the blowdown "
-                               "ends before the valve overlap)")
+            raise out_of_range(
+                "gas.blowdown_duration_deg",
+                f"{self.blowdown_duration / DEG:g}",
+                f"<= {720.0 - self.exhaust_opening / DEG - self.valve_overlap / DEG / 2:g} (the blowdown "
+                "ends before the valve overlap)",
+            )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -451,11 +1004,15 @@ class SmallEnd:
     def __post_init__(self) -> None:
         _check_section(self, "small_end")
         if self.elastic == "fe" and not self.eye_outer_radius > self.pin_radius + self.bushing_thickness:
-            raise out_of_range("small_end.eye_outer_radius_mm", f"{self.eye_outer_radius * 1e3:g}",
-                               f"> pin radius + bushing thickness = {(self.pin_radius + self.bushing_thickness) * 1e3:g}")
+            raise out_of_range(
+                "small_end.eye_outer_radius_mm",
+                f"{self.eye_outer_radius * 1e3:g}",
+                f"> pin radius + bushing thickness = {(self.pin_radius + self.bushing_thickness) * 1e3:g}",
+            )
         if not self.clearance < self.pin_radius:
             raise out_of_range(
-                "small_end.clearance_um", f"{self.clearance * 1e6:g}",
+                "small_end.clearance_um",
+                f"{self.clearance * 1e6:g}",
                 f"< pin_radius = {self.pin_radius * 1e6:g} um",
             )
 
@@ -490,25 +1047,33 @@ class Oil:
     def __post_init__(self) -> None:
         _check_section(self, "oil")
         if self.cavitation == "jfo" and self.inlet == "none" and not self.cavitation_pressure < 0:
-            raise InputError(f"oil.cavitation_pressure_bar = {self.cavitation_pressure / BAR:g} is out of range with "
-                             "oil.cavitation = 'jfo' and oil.inlet = 'none' (allowed: < 0, the edges flooded above "
-                             "the cavitation pressure; or an oil supply: inlet 'hole', 'axial-groove' or "
-                             "'circumferential-groove')")
+            raise InputError(
+                f"oil.cavitation_pressure_bar = {self.cavitation_pressure / BAR:g} is out of range with "
+                "oil.cavitation = 'jfo' and oil.inlet = 'none' (allowed: < 0, the edges flooded above "
+                "the cavitation pressure; or an oil supply: inlet 'hole', 'axial-groove' or "
+                "'circumferential-groove')"
+            )
         if self.cavitation == "jfo" and self.inlet == "max-gap":
-            raise InputError("oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
-                             "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
+            raise InputError(
+                "oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
+                "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')"
+            )
         data = self.data()
         if self.thermal == "effective" and data is None:
-            raise InputError('oil.thermal = "effective" needs the oil\'s viscosity against temperature: give '
-                             "oil.grade or the data sheet (oil.kinematic_viscosity_40C_cSt, ..._100C_cSt, "
-                             "density_15C_kg_m3), not a fixed oil.viscosity_Pa_s")
+            raise InputError(
+                'oil.thermal = "effective" needs the oil\'s viscosity against temperature: give '
+                "oil.grade or the data sheet (oil.kinematic_viscosity_40C_cSt, ..._100C_cSt, "
+                "density_15C_kg_m3), not a fixed oil.viscosity_Pa_s"
+            )
         if data is not None:  # the film's viscosity at temperature_C (frozen: set once here; with thermal =
             # effective the first cycle's, solver.study.simulation sets the film's own between cycles)
             object.__setattr__(self, "viscosity", float(data.dynamic_viscosity(self.temperature)))
 
     def data(self) -> OilData | None:
         """The oil's data sheet (grade or the three values), or None when viscosity_Pa_s is used."""
-        return oil_data(self.grade, self.kinematic_viscosity_40C, self.kinematic_viscosity_100C, self.density_15C)
+        return oil_data(
+            self.grade, self.kinematic_viscosity_40C, self.kinematic_viscosity_100C, self.density_15C
+        )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -549,7 +1114,9 @@ class Solver:
 
     step: float = _field("solver", "step")  # rad, output crank-angle step
     joint: str = "mixed-fem"
-    mesh_size: float | None = _field("solver", "mesh_size")  # element size / pin radius; None: the film's default
+    mesh_size: float | None = _field(
+        "solver", "mesh_size"
+    )  # element size / pin radius; None: the film's default
     rtol: float = _field("solver", "rtol")
     film_fraction_transport: str = "limited"  # limited | upwind (solver.film.jfo)
     max_cycles: int = 4
@@ -599,18 +1166,32 @@ def _check_supply(oil: Oil, small_end: SmallEnd) -> None:
     if oil.inlet == "hole":
         limit = min(small_end.width, small_end.pin_radius) * 1e3
         if not oil.supply_hole_diameter * 1e3 < limit:
-            raise out_of_range("oil.supply_hole_diameter_mm", f"{oil.supply_hole_diameter * 1e3:g}",
-                               f"< min(small_end.width_mm, small_end.pin_radius_mm) = {limit:g}")
+            raise out_of_range(
+                "oil.supply_hole_diameter_mm",
+                f"{oil.supply_hole_diameter * 1e3:g}",
+                f"< min(small_end.width_mm, small_end.pin_radius_mm) = {limit:g}",
+            )
     elif oil.inlet == "axial-groove" and not oil.groove_length * 1e3 < width:
-        raise out_of_range("oil.groove_length_mm", f"{oil.groove_length * 1e3:g}",
-                           f"(0, small_end.width_mm = {width:g}), inside the bushing")
+        raise out_of_range(
+            "oil.groove_length_mm",
+            f"{oil.groove_length * 1e3:g}",
+            f"(0, small_end.width_mm = {width:g}), inside the bushing",
+        )
     elif oil.inlet == "circumferential-groove" and not oil.groove_width * 1e3 < width:
-        raise out_of_range("oil.groove_width_mm", f"{oil.groove_width * 1e3:g}",
-                           f"(0, small_end.width_mm = {width:g}), inside the bushing")
+        raise out_of_range(
+            "oil.groove_width_mm",
+            f"{oil.groove_width * 1e3:g}",
+            f"(0, small_end.width_mm = {width:g}), inside the bushing",
+        )
 
 
 _SECTION_CLASSES = {
-    "engine": Engine, "gas": Gas, "small_end": SmallEnd, "oil": Oil, "surface": Surface, "solver": Solver,
+    "engine": Engine,
+    "gas": Gas,
+    "small_end": SmallEnd,
+    "oil": Oil,
+    "surface": Surface,
+    "solver": Solver,
 }
 
 
@@ -635,7 +1216,9 @@ def _convert(spec: FieldSpec, value: Any, directory: Path) -> Any:
             raise InputError(f"{spec.name} = {value!r} has the wrong type (expected an integer)")
         return value
     if spec.kind is list:
-        if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        if not isinstance(value, list) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+        ):
             raise InputError(f"{spec.name} = {value!r} has the wrong type (expected a list of numbers)")
         return tuple(float(v) * spec.scale for v in value)
     if not isinstance(value, str):
@@ -687,10 +1270,18 @@ def load_case(path: str | Path) -> Case:
             if key not in specs:
                 raise _unknown(f"{section}.{key}", [f"{section}.{k}" for k in specs], where)
             arguments[specs[key].attribute] = _convert(specs[key], value, directory)
-        if section == "oil" and "viscosity" in arguments and any(
-                k in arguments for k in ("grade", "kinematic_viscosity_40C", "kinematic_viscosity_100C", "density_15C")):
-            raise InputError("give either oil.viscosity_Pa_s or the oil's data (oil.grade, or "
-                             "oil.kinematic_viscosity_40C_cSt/..._100C_cSt/density_15C_kg_m3), not both")
+        if (
+            section == "oil"
+            and "viscosity" in arguments
+            and any(
+                k in arguments
+                for k in ("grade", "kinematic_viscosity_40C", "kinematic_viscosity_100C", "density_15C")
+            )
+        ):
+            raise InputError(
+                "give either oil.viscosity_Pa_s or the oil's data (oil.grade, or "
+                "oil.kinematic_viscosity_40C_cSt/..._100C_cSt/density_15C_kg_m3), not both"
+            )
         if section == "gas":
             if "imep" in arguments and "peak_pressure" in arguments:
                 raise InputError("give either gas.peak_pressure_bar or gas.imep_bar, not both")

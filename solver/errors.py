@@ -50,7 +50,9 @@ def read_text_file(path: str | Path, what: str) -> str:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise InputError(f"{what} = {str(path)!r}: not a UTF-8 text file (invalid byte at offset {err.start})") from None
+        raise InputError(
+            f"{what} = {str(path)!r}: not a UTF-8 text file (invalid byte at offset {err.start})"
+        ) from None
     if "\x00" in text:
         raise InputError(f"{what} = {str(path)!r}: not a text file (it contains NUL bytes)")
     return text.removeprefix("\ufeff")  # a byte-order mark some editors write

@@ -93,11 +93,17 @@ class OilData:
         nu40, nu100 = self.kinematic_viscosity_40C, self.kinematic_viscosity_100C
         rho15 = self.density_15C
         if not nu100 >= MIN_KINEMATIC_VISCOSITY:
-            raise out_of_range("kinematic_viscosity_100C", nu100,
-                               f">= {MIN_KINEMATIC_VISCOSITY:g} mm^2/s (ASTM D341's plain Walther form)")
+            raise out_of_range(
+                "kinematic_viscosity_100C",
+                nu100,
+                f">= {MIN_KINEMATIC_VISCOSITY:g} mm^2/s (ASTM D341's plain Walther form)",
+            )
         if not nu40 > nu100:
-            raise out_of_range("kinematic_viscosity_40C", nu40,
-                               f"> kinematic_viscosity_100C = {nu100:g} mm^2/s (oils thin when heated)")
+            raise out_of_range(
+                "kinematic_viscosity_40C",
+                nu40,
+                f"> kinematic_viscosity_100C = {nu100:g} mm^2/s (oils thin when heated)",
+            )
         low, high = DENSITY_RANGE
         if not low < rho15 < high:
             raise out_of_range("density_15C", rho15, f"({low:g}, {high:g}) kg/m^3 (oils: 800-1000)")
@@ -155,12 +161,21 @@ def oil_from_grade(grade: str) -> OilData:
 
 
 #: the inputs of ``oil_data`` as its callers name them in their messages (a case's keys by default)
-CASE_NAMES = {"grade": "oil.grade", "kinematic_viscosity_40C": "oil.kinematic_viscosity_40C_cSt",
-              "kinematic_viscosity_100C": "oil.kinematic_viscosity_100C_cSt", "density_15C": "oil.density_15C_kg_m3"}
+CASE_NAMES = {
+    "grade": "oil.grade",
+    "kinematic_viscosity_40C": "oil.kinematic_viscosity_40C_cSt",
+    "kinematic_viscosity_100C": "oil.kinematic_viscosity_100C_cSt",
+    "density_15C": "oil.density_15C_kg_m3",
+}
 
 
-def oil_data(grade: str | None, kinematic_viscosity_40C: float | None, kinematic_viscosity_100C: float | None,
-             density_15C: float | None, names: dict[str, str] = CASE_NAMES) -> OilData | None:
+def oil_data(
+    grade: str | None,
+    kinematic_viscosity_40C: float | None,
+    kinematic_viscosity_100C: float | None,
+    density_15C: float | None,
+    names: dict[str, str] = CASE_NAMES,
+) -> OilData | None:
     """The oil of a grade, or of the three data-sheet values (one kind, the sheet complete), or None
     when neither is given. Errors name the inputs as ``names`` does (a case's keys, a command's flags)."""
     sheet = (kinematic_viscosity_40C, kinematic_viscosity_100C, density_15C)
@@ -170,7 +185,9 @@ def oil_data(grade: str | None, kinematic_viscosity_40C: float | None, kinematic
     if grade is None and all(v is None for v in sheet):
         return None
     if grade is None and any(v is None for v in sheet):
-        raise InputError(f"the data sheet needs {n40}, {n100} and {rho} together (allowed: all three, or none)")
+        raise InputError(
+            f"the data sheet needs {n40}, {n100} and {rho} together (allowed: all three, or none)"
+        )
     try:
         return oil_from_grade(grade) if grade is not None else OilData(*sheet)
     except InputError as err:

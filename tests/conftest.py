@@ -60,8 +60,14 @@ def run_cli(*args: str, cwd: Path | None = None, timeout: float = 600):
 
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("OMPI_COMM_WORLD_SIZE", None)
-    return subprocess.run([sys.executable, "-m", "solver", *args], capture_output=True, text=True,
-                          cwd=cwd or ROOT, timeout=timeout, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "solver", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd or ROOT,
+        timeout=timeout,
+        env=env,
+    )
 
 
 def assert_one_line_error(result, *fragments: str) -> None:
@@ -105,7 +111,9 @@ def energy_balance(ds) -> tuple[float, float]:
     measure, Simpson's rule on the outputs' input and dissipated powers."""
     from scipy.integrate import simpson
 
-    change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0])
+    change = float(
+        ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0]
+    )
     dissipated = float(ds.dissipated_energy[-1])
     audit = float(ds.input_work[-1]) - change - dissipated + float(ds.drift_work[-1])
     t = ds.time.values

@@ -51,7 +51,9 @@ def test_defaults_are_the_reference_engine_of_design_3_7(tmp_path):
     # DESIGN 3.3: 1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2
     models = surface_from_case(f)  # the film's models of this section
     assert models.modulus == pytest.approx(1.0 / ((1 - 0.09) / 210e9 + (1 - 0.33**2) / 115e9), rel=1e-12)
-    assert models.sigma == pytest.approx(f.sigma, rel=1e-15) and models.asperity_friction == f.asperity_friction
+    assert (
+        models.sigma == pytest.approx(f.sigma, rel=1e-15) and models.asperity_friction == f.asperity_friction
+    )
     assert f.sigma == pytest.approx(math.sqrt(0.1**2 + 0.3**2) * 1e-6)
 
 
@@ -66,7 +68,10 @@ def test_the_reference_case_directory_is_the_default_case():
 
 def test_units_are_converted_once(tmp_path):
     """Unit-suffixed keys become SI (rpm -> rad/s, mm -> m, bar -> Pa, deg -> rad, um -> m, GPa -> Pa)."""
-    case = load_case(write_case(tmp_path / "c", """
+    case = load_case(
+        write_case(
+            tmp_path / "c",
+            """
         name = "units"
         [engine]
         speed_rpm = 3000
@@ -86,7 +91,9 @@ def test_units_are_converted_once(tmp_path):
         joint = "short-bearing"
         max_cycles = 3
         field_angles_deg = [0, 375.5]
-    """))
+    """,
+        )
+    )
     assert case.name == "units"
     assert case.engine.speed == pytest.approx(100.0 * math.pi)
     assert case.engine.bore == pytest.approx(0.0905) and case.engine.pin_offset == pytest.approx(-1.5e-3)
@@ -120,66 +127,108 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
     "text, message",
     [
         ("[engine]\nrod_mass_kg = -0.5\n", r"^engine.rod_mass_kg = -0.5 is out of range \(allowed: > 0\)$"),
-        ("[engine]\nrod_inertia_kg_m2 = -1e-3\n",
-         r"^engine.rod_inertia_kg_m2 = -0.001 is out of range \(allowed: > 0\)$"),
+        (
+            "[engine]\nrod_inertia_kg_m2 = -1e-3\n",
+            r"^engine.rod_inertia_kg_m2 = -0.001 is out of range \(allowed: > 0\)$",
+        ),
         ("[engine]\npiston_mass_kg = 0\n", r"^engine.piston_mass_kg = 0 is out of range \(allowed: > 0\)$"),
         ("[engine]\ncrank_mass_kg = -1\n", r"^engine.crank_mass_kg = -1 is out of range \(allowed: >= 0\)$"),
-        ("[engine]\nrod_length_mm = 44\npin_offset_mm = 2\n",
-         r"^engine.rod_length_mm = 44 is out of range "
-         r"\(allowed: > crank_radius_mm \+ \|pin_offset_mm\| = 45\)$"),
+        (
+            "[engine]\nrod_length_mm = 44\npin_offset_mm = 2\n",
+            r"^engine.rod_length_mm = 44 is out of range "
+            r"\(allowed: > crank_radius_mm \+ \|pin_offset_mm\| = 45\)$",
+        ),
         ("[engine]\nrod_cg_from_big_end_mm = 200\n", r"^engine.rod_cg_from_big_end_mm = 200 is out of range"),
-        ("[engine]\nspeed_rpm = nan\n",
-         r"^engine.speed_rpm = nan is out of range \(allowed: \(0, 30000\)\)$"),
-        ("[engine]\nbore_mm = \"86\"\n", r"^engine.bore_mm = '86' has the wrong type \(expected a number\)$"),
+        (
+            "[engine]\nspeed_rpm = nan\n",
+            r"^engine.speed_rpm = nan is out of range \(allowed: \(0, 30000\)\)$",
+        ),
+        ('[engine]\nbore_mm = "86"\n', r"^engine.bore_mm = '86' has the wrong type \(expected a number\)$"),
         ("[engine]\nbore_mm = true\n", r"^engine.bore_mm = True has the wrong type \(expected a number\)$"),
         ("[engine]\ngravity = 1\n", r"^engine.gravity = 1 has the wrong type \(expected true or false\)$"),
         ("[engine]\nbore = 86\n", r"unknown key engine.bore \(did you mean engine.bore_mm\?\)$"),
         ("[engin]\nbore_mm = 86\n", r"unknown section \[engin\] \(did you mean \[engine\]\?\)$"),
         ("speed_rpm = 2000\n", r"unknown key speed_rpm"),
-        ("[gas]\ncombustion_start_deg = 460\ncombustion_duration_deg = 40\n",
-         r"^gas.combustion_duration_deg = 40 is out of range \(allowed: < 30 \(combustion must end before the exhaust opens"),
-        ("[gas]\ncombustion_start_deg = 100\n",
-         r"^gas.combustion_start_deg = 100 is out of range \(allowed: \(180, 540\)\)$"),
-        ("[gas]\npeak_pressure_bar = 60\nimep_bar = 10\n",
-         r"either gas.peak_pressure_bar or gas.imep_bar, not both"),
-        ("[gas]\nmodel = \"trace\"\n", r"gas.pressure_file is required with gas.model = \"trace\""),
-        ("[gas]\nmodel = \"magic\"\n",
-         r"^gas.model = 'magic' is out of range \(allowed: 'single-zone', 'motored'"),
-        ("[gas]\npressure_file = \"missing.csv\"\n", r"^gas.pressure_file = 'missing.csv': file not found"),
-        ("[gas]\npolytropic_exponent = 1.8\n",
-         r"^gas.polytropic_exponent = 1.8 is out of range \(allowed: \(1, 1.66667\)\)$"),
-        ("[small_end]\nclearance_um = 20000\n",
-         r"^small_end.clearance_um = 20000 is out of range \(allowed: < pin_radius"),
+        (
+            "[gas]\ncombustion_start_deg = 460\ncombustion_duration_deg = 40\n",
+            r"^gas.combustion_duration_deg = 40 is out of range \(allowed: < 30 \(combustion must end before the exhaust opens",
+        ),
+        (
+            "[gas]\ncombustion_start_deg = 100\n",
+            r"^gas.combustion_start_deg = 100 is out of range \(allowed: \(180, 540\)\)$",
+        ),
+        (
+            "[gas]\npeak_pressure_bar = 60\nimep_bar = 10\n",
+            r"either gas.peak_pressure_bar or gas.imep_bar, not both",
+        ),
+        ('[gas]\nmodel = "trace"\n', r"gas.pressure_file is required with gas.model = \"trace\""),
+        (
+            '[gas]\nmodel = "magic"\n',
+            r"^gas.model = 'magic' is out of range \(allowed: 'single-zone', 'motored'",
+        ),
+        ('[gas]\npressure_file = "missing.csv"\n', r"^gas.pressure_file = 'missing.csv': file not found"),
+        (
+            "[gas]\npolytropic_exponent = 1.8\n",
+            r"^gas.polytropic_exponent = 1.8 is out of range \(allowed: \(1, 1.66667\)\)$",
+        ),
+        (
+            "[small_end]\nclearance_um = 20000\n",
+            r"^small_end.clearance_um = 20000 is out of range \(allowed: < pin_radius",
+        ),
         ("[surface]\nsigma_pin_um = 0\nsigma_bushing_um = 0\n", r"composite roughness > 0"),
         ("[surface]\nnu_pin = 0.5\n", r"^surface.nu_pin = 0.5 is out of range \(allowed: \(-1, 0.5\)\)$"),
         ("[oil]\nviscosity_Pa_s = -0.01\n", r"^oil.viscosity_Pa_s = -0.01 is out of range \(allowed: > 0\)$"),
         ("[solver]\nstep_deg = 0.7\n", r"^solver.step_deg = 0.7 is out of range"),
-        ("[solver]\njoint = \"glue\"\n", r"^solver.joint = 'glue' is out of range \(allowed: 'mixed-fem'"),
-        ("[solver]\nmax_cycles = 2.5\n", r"^solver.max_cycles = 2.5 has the wrong type \(expected an integer\)$"),
-        ("[solver]\nmax_cycles = 0\n", r"^solver.max_cycles = 0 is out of range \(allowed: an integer in \[1, 100\]\)$"),
+        ('[solver]\njoint = "glue"\n', r"^solver.joint = 'glue' is out of range \(allowed: 'mixed-fem'"),
+        (
+            "[solver]\nmax_cycles = 2.5\n",
+            r"^solver.max_cycles = 2.5 has the wrong type \(expected an integer\)$",
+        ),
+        (
+            "[solver]\nmax_cycles = 0\n",
+            r"^solver.max_cycles = 0 is out of range \(allowed: an integer in \[1, 100\]\)$",
+        ),
         ("[solver]\nfield_angles_deg = [10, 800]\n", r"^solver.field_angles_deg = .* is out of range"),
-        ("[solver]\nfield_angles_deg = \"all\"\n", r"^solver.field_angles_deg = 'all' has the wrong type"),
+        ('[solver]\nfield_angles_deg = "all"\n', r"^solver.field_angles_deg = 'all' has the wrong type"),
         ("[solver]\nfuture_option = 1\n", r"unknown key solver.future_option"),
-        ("[oil]\ninlet = \"groove\"\n", r"^oil.inlet = 'groove' is out of range"),
-        ("[oil]\ninlet = \"axial-groove\"\ngroove_arc_deg = 360\n",
-         r"^oil.groove_arc_deg = 360 is out of range \(allowed: \(0, 360\)\)$"),
-        ("[oil]\ninlet = \"axial-groove\"\ngroove_length_mm = 20\n",
-         r"^oil.groove_length_mm = 20 is out of range \(allowed: \(0, small_end.width_mm = 20\), inside the bushing\)$"),
-        ("[oil]\ninlet = \"circumferential-groove\"\ngroove_width_mm = 25\n",
-         r"^oil.groove_width_mm = 25 is out of range \(allowed: \(0, small_end.width_mm = 20\)"),
+        ('[oil]\ninlet = "groove"\n', r"^oil.inlet = 'groove' is out of range"),
+        (
+            '[oil]\ninlet = "axial-groove"\ngroove_arc_deg = 360\n',
+            r"^oil.groove_arc_deg = 360 is out of range \(allowed: \(0, 360\)\)$",
+        ),
+        (
+            '[oil]\ninlet = "axial-groove"\ngroove_length_mm = 20\n',
+            r"^oil.groove_length_mm = 20 is out of range \(allowed: \(0, small_end.width_mm = 20\), inside the bushing\)$",
+        ),
+        (
+            '[oil]\ninlet = "circumferential-groove"\ngroove_width_mm = 25\n',
+            r"^oil.groove_width_mm = 25 is out of range \(allowed: \(0, small_end.width_mm = 20\)",
+        ),
         ("[oil]\ngroove_width_mm = 0\n", r"^oil.groove_width_mm = 0 is out of range \(allowed: > 0\)$"),
-        ("[oil]\ninlet = \"hole\"\nsupply_hole_diameter_mm = 12\n",
-         (r"^oil.supply_hole_diameter_mm = 12 is out of range \(allowed: < min\(small_end.width_mm, "
-          r"small_end.pin_radius_mm\) = 10\)$")),
+        (
+            '[oil]\ninlet = "hole"\nsupply_hole_diameter_mm = 12\n',
+            (
+                r"^oil.supply_hole_diameter_mm = 12 is out of range \(allowed: < min\(small_end.width_mm, "
+                r"small_end.pin_radius_mm\) = 10\)$"
+            ),
+        ),
         ("[engine\nbore_mm = 86\n", r"invalid TOML"),
-        ("[oil]\nviscosity_Pa_s = 0.01\ngrade = \"5W-30\"\n", r"give either oil.viscosity_Pa_s or the oil's data"),
-        ("[oil]\ngrade = \"5W-31\"\n", r"^oil.grade = '5W-31' is out of range \(allowed: '0W-20'"),
+        (
+            '[oil]\nviscosity_Pa_s = 0.01\ngrade = "5W-30"\n',
+            r"give either oil.viscosity_Pa_s or the oil's data",
+        ),
+        ('[oil]\ngrade = "5W-31"\n', r"^oil.grade = '5W-31' is out of range \(allowed: '0W-20'"),
         ("[oil]\nkinematic_viscosity_40C_cSt = 68\n", r"together \(allowed: all three, or none\)"),
-        ("[oil]\nkinematic_viscosity_40C_cSt = 10\nkinematic_viscosity_100C_cSt = 11\ndensity_15C_kg_m3 = 850\n",
-         r"^oil.kinematic_viscosity_40C_cSt = 10(\.0)? is out of range \(allowed: > oil.kinematic_viscosity_100C_cSt = 11"),
-        ("[oil]\ngrade = \"5W-30\"\ntemperature_C = 300\n", r"^oil.temperature_C = 300 is out of range"),
-        ("[small_end]\nelastic = \"fe\"\neye_outer_radius_mm = 11\n", r"^small_end.eye_outer_radius_mm = 11 is out"),
-        ("[oil]\npiezoviscosity = \"linear\"\n", r"^oil.piezoviscosity = 'linear' is out of range"),
+        (
+            "[oil]\nkinematic_viscosity_40C_cSt = 10\nkinematic_viscosity_100C_cSt = 11\ndensity_15C_kg_m3 = 850\n",
+            r"^oil.kinematic_viscosity_40C_cSt = 10(\.0)? is out of range \(allowed: > oil.kinematic_viscosity_100C_cSt = 11",
+        ),
+        ('[oil]\ngrade = "5W-30"\ntemperature_C = 300\n', r"^oil.temperature_C = 300 is out of range"),
+        (
+            '[small_end]\nelastic = "fe"\neye_outer_radius_mm = 11\n',
+            r"^small_end.eye_outer_radius_mm = 11 is out",
+        ),
+        ('[oil]\npiezoviscosity = "linear"\n', r"^oil.piezoviscosity = 'linear' is out of range"),
     ],
 )
 def test_bad_values_give_one_line_errors_naming_the_field(tmp_path, text, message):
@@ -236,15 +285,17 @@ def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     and a hotter oil is thinner."""
     from solver.oil import oil_from_grade
 
-    grade = load_case(write_case(tmp_path / "grade", "[oil]\ngrade = \"5W-30\"\ntemperature_C = 90\n"))
+    grade = load_case(write_case(tmp_path / "grade", '[oil]\ngrade = "5W-30"\ntemperature_C = 90\n'))
     sheet = oil_from_grade("5W-30")
-    text = (f"[oil]\nkinematic_viscosity_40C_cSt = {sheet.kinematic_viscosity_40C}\n"
-            f"kinematic_viscosity_100C_cSt = {sheet.kinematic_viscosity_100C}\ndensity_15C_kg_m3 = {sheet.density_15C}\n"
-            "temperature_C = 90\n")
+    text = (
+        f"[oil]\nkinematic_viscosity_40C_cSt = {sheet.kinematic_viscosity_40C}\n"
+        f"kinematic_viscosity_100C_cSt = {sheet.kinematic_viscosity_100C}\ndensity_15C_kg_m3 = {sheet.density_15C}\n"
+        "temperature_C = 90\n"
+    )
     data = load_case(write_case(tmp_path / "sheet", text))
     expected = sheet.kinematic_viscosity(90.0) * 1e-6 * sheet.density(90.0)
     assert grade.oil.viscosity == pytest.approx(expected, rel=1e-12)
     assert data.oil.viscosity == pytest.approx(expected, rel=1e-12)
-    hot = load_case(write_case(tmp_path / "hot", "[oil]\ngrade = \"5W-30\"\ntemperature_C = 120\n"))
+    hot = load_case(write_case(tmp_path / "hot", '[oil]\ngrade = "5W-30"\ntemperature_C = 120\n'))
     assert hot.oil.viscosity < grade.oil.viscosity
     assert load_case(write_case(tmp_path / "plain", "")).oil.viscosity == 0.010  # the reference default

@@ -44,7 +44,7 @@ def _cycle(graph) -> list[str] | None:
             if imported == "solver" or not imported.startswith("solver"):
                 continue  # the root package holds only __version__
             if state.get(imported) == 1:
-                return stack[stack.index(imported):] + [imported]
+                return stack[stack.index(imported) :] + [imported]
             if imported not in state:
                 found = visit(imported)
                 if found:

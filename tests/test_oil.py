@@ -51,8 +51,14 @@ def test_walther_predicts_a_published_viscosity_table():
     0.15% at the predicted points; density to 1 kg/m^3: 0.05%) moves an interpolated value by up to
     ~0.4%; 1% leaves room for D341's own error on a non-petroleum hydrocarbon (seen: 0.33% at 20 C).
     """
-    table = {-10.0: (1206, 994), 0.0: (809, 986), 10.0: (576, 979), 20.0: (430, 971), 30.0: (332, 963),
-             40.0: (264, 956)}
+    table = {
+        -10.0: (1206, 994),
+        0.0: (809, 986),
+        10.0: (576, 979),
+        20.0: (430, 971),
+        30.0: (332, 963),
+        40.0: (264, 956),
+    }
     nu = {t: mu * 1e-5 / rho * 1e6 for t, (mu, rho) in table.items()}  # mm^2/s
     A, B = walther_constants(-10.0, nu[-10.0], 40.0, nu[40.0])
     for t in (0.0, 10.0, 20.0, 30.0):
@@ -83,7 +89,8 @@ def test_dynamic_viscosity_is_kinematic_times_density():
     (9.3-12.5 mm^2/s) alone spans +-15% around its centre."""
     oil = oil_from_grade("5W-30")
     assert oil.dynamic_viscosity(90.0) == pytest.approx(
-        oil.kinematic_viscosity(90.0) * 1e-6 * oil.density(90.0), rel=1e-12)
+        oil.kinematic_viscosity(90.0) * 1e-6 * oil.density(90.0), rel=1e-12
+    )
     assert oil.dynamic_viscosity(100.0) == pytest.approx(0.010, rel=0.10)
 
 
@@ -115,14 +122,17 @@ def test_grades_lie_in_their_sae_j300_range(grade):
     assert oil.kinematic_viscosity_40C > oil.kinematic_viscosity_100C
 
 
-@pytest.mark.parametrize("values, field, allowed", [
-    ((10.0, 12.0, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 12 mm^2/s"),
-    ((12.0, 12.0, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 12 mm^2/s"),
-    ((-68.0, 11.9, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 11.9 mm^2/s"),
-    ((68.0, -11.9, 850.0), "kinematic_viscosity_100C", ">= 2 mm^2/s"),
-    ((68.0, 11.9, -850.0), "density_15C", "(700, 1200) kg/m^3"),
-    ((68.0, 11.9, 0.85), "density_15C", "(700, 1200) kg/m^3"),  # typed in kg/l
-])
+@pytest.mark.parametrize(
+    "values, field, allowed",
+    [
+        ((10.0, 12.0, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 12 mm^2/s"),
+        ((12.0, 12.0, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 12 mm^2/s"),
+        ((-68.0, 11.9, 850.0), "kinematic_viscosity_40C", "> kinematic_viscosity_100C = 11.9 mm^2/s"),
+        ((68.0, -11.9, 850.0), "kinematic_viscosity_100C", ">= 2 mm^2/s"),
+        ((68.0, 11.9, -850.0), "density_15C", "(700, 1200) kg/m^3"),
+        ((68.0, 11.9, 0.85), "density_15C", "(700, 1200) kg/m^3"),  # typed in kg/l
+    ],
+)
 def test_bad_oil_data_names_the_field_and_its_range(values, field, allowed):
     """InputError whose one-line message starts with the field and gives its allowed range."""
     with pytest.raises(InputError) as err:

@@ -98,10 +98,18 @@ def test_no_balance_below_the_oils_limit_is_an_error():
             iteration.record(model.balance(t, 1000.0, 1e-12))
 
 
-@pytest.mark.parametrize(("ecc", "rate", "omega", "expected"), [
-    ((3e-6, -2e-6), (1e-3, -2e-3), 0.0, 2 * 0.02 * 0.01 * math.hypot(1e-3, 2e-3)),  # squeeze: 2 B R |de/dt|
-    ((4e-6, 3e-6), (0.0, 0.0), -150.0, 0.02 * 0.01 * 150.0 * 5e-6),  # rotation: B R |omega| e
-])
+@pytest.mark.parametrize(
+    ("ecc", "rate", "omega", "expected"),
+    [
+        (
+            (3e-6, -2e-6),
+            (1e-3, -2e-3),
+            0.0,
+            2 * 0.02 * 0.01 * math.hypot(1e-3, 2e-3),
+        ),  # squeeze: 2 B R |de/dt|
+        ((4e-6, 3e-6), (0.0, 0.0), -150.0, 0.02 * 0.01 * 150.0 * 5e-6),  # rotation: B R |omega| e
+    ],
+)
 def test_short_bearing_side_flow_has_the_closed_form(ecc, rate, omega, expected):
     """Ocvirk's side flow -B R integral_{g<0} g dtheta in closed form: pure squeeze 2 B R |de/dt|, pure
     rotation B R |omega| e. Tolerance 1e-5: the joint's 1440-point midpoint rule has an O(h^2) ~ 2e-5
@@ -131,9 +139,11 @@ def test_engine_run_closes_the_heat_balance(tmp_path):
     temperature: measured from cycle to cycle, 1.5e-8 at 1 deg outputs and rtol 1e-6, ~1e-7 at 5 deg
     and rtol 1e-7, but 1e-6 at 4 deg and 1.6e-4 (a period-2 alternation near 650-680 deg) at 2 deg with
     rtol 1e-6. 5 deg and rtol 1e-7 (7 cycles, closure 1.5e-7, 32 s) is the cheapest reliable choice."""
-    case = write_case(tmp_path / "hot", f'grade = "5W-30"\ntemperature_C = {SUPPLY}\nthermal = "effective"',
-                      'joint = "short-bearing"\nstep_deg = 5\nrtol = 1e-7\nmax_cycles = 12\n'
-                      'field_step_deg = 0\n')
+    case = write_case(
+        tmp_path / "hot",
+        f'grade = "5W-30"\ntemperature_C = {SUPPLY}\nthermal = "effective"',
+        'joint = "short-bearing"\nstep_deg = 5\nrtol = 1e-7\nmax_cycles = 12\nfield_step_deg = 0\n',
+    )
     from solver.study.simulation import run_case
 
     summary = run_case(case, MPI.COMM_SELF)
@@ -160,15 +170,17 @@ def test_engine_run_closes_the_heat_balance(tmp_path):
 def test_effective_with_a_fixed_viscosity_is_a_one_line_error(tmp_path):
     """oil.thermal = "effective" needs the oil's temperature dependence: with viscosity_Pa_s (or with
     no oil data at all) the case is refused with one line naming the fields, exit 2."""
-    fixed = write_case(tmp_path / "fixed", 'viscosity_Pa_s = 0.01\nthermal = "effective"',
-                       'joint = "short-bearing"')
+    fixed = write_case(
+        tmp_path / "fixed", 'viscosity_Pa_s = 0.01\nthermal = "effective"', 'joint = "short-bearing"'
+    )
     with pytest.raises(InputError, match=r"oil\.thermal.*oil\.viscosity_Pa_s") as err:
         load_case(fixed)
     assert "\n" not in str(err.value)
     with pytest.raises(InputError, match="oil.grade"):
         load_case(write_case(tmp_path / "none", 'thermal = "effective"', ""))
-    assert_one_line_error(run_cli("run", str(fixed)), 'oil.thermal = "effective"', "oil.viscosity_Pa_s",
-                          "oil.grade")
+    assert_one_line_error(
+        run_cli("run", str(fixed)), 'oil.thermal = "effective"', "oil.viscosity_Pa_s", "oil.grade"
+    )
 
 
 def test_effective_needs_a_film_joint(tmp_path):
@@ -176,7 +188,7 @@ def test_effective_needs_a_film_joint(tmp_path):
     from solver.study.simulation import run_case
 
     case = write_case(tmp_path / "dry", 'grade = "5W-30"\nthermal = "effective"', 'joint = "dry"')
-    with pytest.raises(InputError, match='needs a film with a side flow'):
+    with pytest.raises(InputError, match="needs a film with a side flow"):
         run_case(case, MPI.COMM_SELF)
 
 
@@ -197,6 +209,11 @@ def test_interrupted_effective_run_resumes_the_thermal_iteration(tmp_path, monke
         temperatures = a.attrs["thermal.temperatures_C"]
         assert len(temperatures) == 3 and len(set(temperatures)) == 3  # three different temperatures
         np.testing.assert_array_equal(temperatures, b.attrs["thermal.temperatures_C"])
-        for name in ("film_temperature", "film_viscosity", "thermal_closure", "dissipated_power",
-                     "side_flow"):
+        for name in (
+            "film_temperature",
+            "film_viscosity",
+            "thermal_closure",
+            "dissipated_power",
+            "side_flow",
+        ):
             np.testing.assert_array_equal(a[name].values, b[name].values)

@@ -22,11 +22,20 @@ from solver.errors import FilmNotConverged, InputError
 # command name -> (module, one-line help). Modules are imported lazily so that `--help` and
 # argument errors do not pay for importing dolfinx.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "bearing": ("solver.cli.bearing", "one journal bearing: load at given eccentricity, or equilibrium under a load"),
-    "stribeck": ("solver.cli.stribeck", "friction coefficient against speed at a fixed load (Stribeck curve)"),
+    "bearing": (
+        "solver.cli.bearing",
+        "one journal bearing: load at given eccentricity, or equilibrium under a load",
+    ),
+    "stribeck": (
+        "solver.cli.stribeck",
+        "friction coefficient against speed at a fixed load (Stribeck curve)",
+    ),
     "engine": ("solver.cli.engine", "the crank-rod-piston engine cycle with ideal joints"),
     "run": ("solver.cli.run", "one engine operating point with the lubricated small end (case directory)"),
-    "batch": ("solver.cli.batch", "many operating points (case directories or a sweep file) across MPI ranks"),
+    "batch": (
+        "solver.cli.batch",
+        "many operating points (case directories or a sweep file) across MPI ranks",
+    ),
     "compare": ("solver.cli.compare", "finished runs side by side: a table and a plot over the crank angle"),
 }
 
@@ -71,7 +80,9 @@ class _OursOrWarnings(logging.Filter):
     """
 
     def filter(self, record: logging.LogRecord) -> bool:
-        return record.name == "solver" or record.name.startswith("solver.") or record.levelno >= logging.WARNING
+        return (
+            record.name == "solver" or record.name.startswith("solver.") or record.levelno >= logging.WARNING
+        )
 
 
 _HANDLER_TAG = "_tribo_handler"

@@ -24,31 +24,67 @@ METRIC_CHOICES = ("h_min_min", "p_max_max", "F_asperity_max", "friction_power_me
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``batch`` command."""
-    parser.add_argument("paths", nargs="+", metavar="PATH",
-                        help="case directory, directory of case directories, "
-                             "or sweep file (TOML with [sweep])")
-    parser.add_argument("--ranks-per-case", type=int, default=1, metavar="K",
-                        help="MPI ranks per case (the world is split into groups of K; default 1)")
-    parser.add_argument("--schedule", choices=("dynamic", "static"), default="dynamic",
-                        help="dynamic: groups take the next case when free (default); static: round robin")
-    parser.add_argument("--cases-dir", type=Path, default=None, metavar="DIR",
-                        help="where sweep files write their case directories (default: [sweep] cases_dir, "
-                             "else a directory named after the sweep file, beside it)")
-    parser.add_argument("--output", type=Path, default=None, metavar="DIR",
-                        help="batch directory for batch_status.json, summary.nc and the plot (default: the "
-                             "sweep's cases directory, else the common parent of the case directories)")
+    parser.add_argument(
+        "paths",
+        nargs="+",
+        metavar="PATH",
+        help="case directory, directory of case directories, or sweep file (TOML with [sweep])",
+    )
+    parser.add_argument(
+        "--ranks-per-case",
+        type=int,
+        default=1,
+        metavar="K",
+        help="MPI ranks per case (the world is split into groups of K; default 1)",
+    )
+    parser.add_argument(
+        "--schedule",
+        choices=("dynamic", "static"),
+        default="dynamic",
+        help="dynamic: groups take the next case when free (default); static: round robin",
+    )
+    parser.add_argument(
+        "--cases-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="where sweep files write their case directories (default: [sweep] cases_dir, "
+        "else a directory named after the sweep file, beside it)",
+    )
+    parser.add_argument(
+        "--output",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="batch directory for batch_status.json, summary.nc and the plot (default: the "
+        "sweep's cases directory, else the common parent of the case directories)",
+    )
     parser.add_argument("--force", action="store_true", help="run finished cases again")
-    parser.add_argument("--shard", default=None, metavar="I/N",
-                        help="run only shard I of N (cases I, I+N, ...; 0 <= I < N), e.g. one Slurm "
-                             "array task; writes batch_status.shard-I-of-N.json and no summary")
-    parser.add_argument("--summary-only", action="store_true",
-                        help="run nothing: write batch_status.json and the summary from the cases' files "
-                             "(the final step after sharded runs)")
+    parser.add_argument(
+        "--shard",
+        default=None,
+        metavar="I/N",
+        help="run only shard I of N (cases I, I+N, ...; 0 <= I < N), e.g. one Slurm "
+        "array task; writes batch_status.shard-I-of-N.json and no summary",
+    )
+    parser.add_argument(
+        "--summary-only",
+        action="store_true",
+        help="run nothing: write batch_status.json and the summary from the cases' files "
+        "(the final step after sharded runs)",
+    )
     parser.add_argument("--no-summary", action="store_true", help="do not write the summary")
-    parser.add_argument("--plot-metric", choices=METRIC_CHOICES, default="h_min_min",
-                        help="metric of summary_<metric>.png (default h_min_min)")
-    parser.add_argument("--list", action="store_true",
-                        help="expand sweep files, list the cases and whether they are finished, run nothing")
+    parser.add_argument(
+        "--plot-metric",
+        choices=METRIC_CHOICES,
+        default="h_min_min",
+        help="metric of summary_<metric>.png (default h_min_min)",
+    )
+    parser.add_argument(
+        "--list",
+        action="store_true",
+        help="expand sweep files, list the cases and whether they are finished, run nothing",
+    )
 
 
 def parse_shard(text: str | None) -> tuple[int, int] | None:
@@ -100,8 +136,11 @@ def run(args: argparse.Namespace, comm) -> int:
             if args.list:
                 cases = plan.shard(*shard).cases if shard else plan.cases
                 for case in cases:
-                    state = "finished" if batch.is_finished(case) else (
-                        (batch.read_case_status(case) or {}).get("status", "pending"))
+                    state = (
+                        "finished"
+                        if batch.is_finished(case)
+                        else ((batch.read_case_status(case) or {}).get("status", "pending"))
+                    )
                     state = "pending" if state in ("complete", "skipped") else state
                     print(f"{state:9s} {case}")
                 print(f"{len(cases)} case(s); batch directory {plan.output}", file=sys.stderr)
@@ -111,9 +150,16 @@ def run(args: argparse.Namespace, comm) -> int:
         return comm.bcast(status, root=0)
 
     _log_other_ranks(comm)
-    result = batch.run_batch(plan, comm, ranks_per_case=args.ranks_per_case, schedule=args.schedule,
-                             force=args.force, shard=shard, summary=not args.no_summary,
-                             plot_metric=args.plot_metric)
+    result = batch.run_batch(
+        plan,
+        comm,
+        ranks_per_case=args.ranks_per_case,
+        schedule=args.schedule,
+        force=args.force,
+        shard=shard,
+        summary=not args.no_summary,
+        plot_metric=args.plot_metric,
+    )
     if comm.rank == 0:
         failed = [r for r in result.records if r["status"] not in batch.PASSED]
         for record in failed:

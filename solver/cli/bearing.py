@@ -25,15 +25,23 @@ from solver.film.surface import Surface
 from solver.study import io
 
 
-def _number(name: str, low: float | None = None, high: float | None = None, low_open: bool = True,
-            high_open: bool = True, allowed: str = ""):
+def _number(
+    name: str,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = True,
+    high_open: bool = True,
+    allowed: str = "",
+):
     """An argparse type: a finite float inside the given range, else a one-line error naming it."""
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} = {text!r} is not a number (allowed: {allowed})") from None
+            raise argparse.ArgumentTypeError(
+                f"{name} = {text!r} is not a number (allowed: {allowed})"
+            ) from None
         ok = math.isfinite(value)
         if ok and low is not None:
             ok = value > low if low_open else value >= low
@@ -49,37 +57,83 @@ def _number(name: str, low: float | None = None, high: float | None = None, low_
 def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
     """Bearing geometry, oil and inlet (shared with the stribeck command)."""
     g = parser.add_argument_group("bearing")
-    g.add_argument("--radius", required=True, type=_number("--radius", 0, allowed="> 0 m"), help="journal radius R [m]")
-    g.add_argument("--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]")
-    g.add_argument("--clearance", required=True, type=_number("--clearance", 0, allowed="> 0 m"),
-                   help="radial clearance c [m]")
-    g.add_argument("--viscosity", type=_number("--viscosity", 0, allowed="> 0 Pa s"), default=None,
-                   help="dynamic viscosity [Pa s]; or the oil's data: --grade, or --kinematic-viscosity-40C, "
-                        "--kinematic-viscosity-100C and --density, at --temperature")
-    g.add_argument("--grade", default=None, help="SAE grade with typical data-sheet values (0W-20, 0W-30, 5W-30, "
-                                                  "5W-40, 10W-40, 15W-40)")
-    g.add_argument("--kinematic-viscosity-40C", dest="nu40", type=_number("--kinematic-viscosity-40C", 0, allowed="> 0 cSt"),
-                   default=None, help="kinematic viscosity at 40 C [cSt = mm^2/s]")
-    g.add_argument("--kinematic-viscosity-100C", dest="nu100",
-                   type=_number("--kinematic-viscosity-100C", 0, allowed="> 0 cSt"), default=None,
-                   help="kinematic viscosity at 100 C [cSt]")
-    g.add_argument("--density", type=_number("--density", 0, allowed="> 0 kg/m^3"), default=None,
-                   help="density at 15 C [kg/m^3]")
-    g.add_argument("--temperature", type=_number("--temperature", -40, 250, low_open=False, high_open=False,
-                                                 allowed="[-40, 250] C"), default=None,
-                   help="oil temperature [C] for the data-sheet viscosity (default 100)")
-    g.add_argument("--speed", type=_number("--speed", allowed="a finite number of rpm"), default=0.0,
-                   help="journal speed [rpm] (bushing fixed; default 0)")
-    g.add_argument("--cavitation-pressure", type=_number("--cavitation-pressure", high=0, high_open=False,
-                                                         allowed="<= 0 Pa gauge"),
-                   default=0.0, help="cavitation pressure [Pa gauge] (default 0)")
-    g.add_argument("--cavitation", choices=("reynolds", "jfo"), default="reynolds",
-                   help="cavitation model: reynolds (p >= p_cav, default) or jfo (mass-conserving; the steady, "
-                        "quasi-static solution; one rank, degree 1)")
-    g.add_argument("--inlet", choices=("max-gap", "none"), default=None,
-                   help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
-                        "assumption, default without a supply); none: cavitation alone decides (default, and the "
-                        "only choice, with an oil supply below)")
+    g.add_argument(
+        "--radius", required=True, type=_number("--radius", 0, allowed="> 0 m"), help="journal radius R [m]"
+    )
+    g.add_argument(
+        "--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]"
+    )
+    g.add_argument(
+        "--clearance",
+        required=True,
+        type=_number("--clearance", 0, allowed="> 0 m"),
+        help="radial clearance c [m]",
+    )
+    g.add_argument(
+        "--viscosity",
+        type=_number("--viscosity", 0, allowed="> 0 Pa s"),
+        default=None,
+        help="dynamic viscosity [Pa s]; or the oil's data: --grade, or --kinematic-viscosity-40C, "
+        "--kinematic-viscosity-100C and --density, at --temperature",
+    )
+    g.add_argument(
+        "--grade",
+        default=None,
+        help="SAE grade with typical data-sheet values (0W-20, 0W-30, 5W-30, 5W-40, 10W-40, 15W-40)",
+    )
+    g.add_argument(
+        "--kinematic-viscosity-40C",
+        dest="nu40",
+        type=_number("--kinematic-viscosity-40C", 0, allowed="> 0 cSt"),
+        default=None,
+        help="kinematic viscosity at 40 C [cSt = mm^2/s]",
+    )
+    g.add_argument(
+        "--kinematic-viscosity-100C",
+        dest="nu100",
+        type=_number("--kinematic-viscosity-100C", 0, allowed="> 0 cSt"),
+        default=None,
+        help="kinematic viscosity at 100 C [cSt]",
+    )
+    g.add_argument(
+        "--density",
+        type=_number("--density", 0, allowed="> 0 kg/m^3"),
+        default=None,
+        help="density at 15 C [kg/m^3]",
+    )
+    g.add_argument(
+        "--temperature",
+        type=_number("--temperature", -40, 250, low_open=False, high_open=False, allowed="[-40, 250] C"),
+        default=None,
+        help="oil temperature [C] for the data-sheet viscosity (default 100)",
+    )
+    g.add_argument(
+        "--speed",
+        type=_number("--speed", allowed="a finite number of rpm"),
+        default=0.0,
+        help="journal speed [rpm] (bushing fixed; default 0)",
+    )
+    g.add_argument(
+        "--cavitation-pressure",
+        type=_number("--cavitation-pressure", high=0, high_open=False, allowed="<= 0 Pa gauge"),
+        default=0.0,
+        help="cavitation pressure [Pa gauge] (default 0)",
+    )
+    g.add_argument(
+        "--cavitation",
+        choices=("reynolds", "jfo"),
+        default="reynolds",
+        help="cavitation model: reynolds (p >= p_cav, default) or jfo (mass-conserving; the steady, "
+        "quasi-static solution; one rank, degree 1)",
+    )
+    g.add_argument(
+        "--inlet",
+        choices=("max-gap", "none"),
+        default=None,
+        help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
+        "assumption, default without a supply); none: cavitation alone decides (default, and the "
+        "only choice, with an oil supply below)",
+    )
     add_supply_arguments(parser)
 
 
@@ -88,28 +142,58 @@ def add_supply_arguments(parser: argparse.ArgumentParser) -> None:
     on the mid-plane and held at --supply-pressure. Angles are bushing angles [deg] from the bushing's +x
     axis toward +y (the load acts along -y, at -90)."""
     g = parser.add_argument_group("oil supply (one of: a hole, an axial groove, a circumferential groove)")
-    g.add_argument("--hole-angle", type=_number("--hole-angle", -360, 360, allowed="(-360, 360) deg"), default=None,
-                   help="round hole: bushing angle of its centre [deg] (with --hole-diameter)")
-    g.add_argument("--hole-diameter", type=_number("--hole-diameter", 0, allowed="(0, min(width, radius)) m"),
-                   default=None, help="round hole: diameter [m]")
-    g.add_argument("--groove-angle", type=_number("--groove-angle", -360, 360, allowed="(-360, 360) deg"),
-                   default=None, help="axial groove: bushing angle of its centre [deg] (with --groove-arc and "
-                                      "--groove-length)")
-    g.add_argument("--groove-arc", type=_number("--groove-arc", 0, 360, allowed="(0, 360) deg"), default=None,
-                   help="axial groove: circumferential extent [deg]")
-    g.add_argument("--groove-length", type=_number("--groove-length", 0, allowed="(0, width) m"), default=None,
-                   help="axial groove: axial length [m]")
-    g.add_argument("--circumferential-groove", metavar="WIDTH", type=_number("--circumferential-groove", 0,
-                                                                             allowed="(0, width) m"),
-                   default=None, help="a full circumferential groove of this axial width [m]")
-    g.add_argument("--supply-pressure", type=_number("--supply-pressure", 0, low_open=False, allowed=">= 0 Pa gauge"),
-                   default=None, help="oil pressure in the hole or groove [Pa gauge] (default 0)")
+    g.add_argument(
+        "--hole-angle",
+        type=_number("--hole-angle", -360, 360, allowed="(-360, 360) deg"),
+        default=None,
+        help="round hole: bushing angle of its centre [deg] (with --hole-diameter)",
+    )
+    g.add_argument(
+        "--hole-diameter",
+        type=_number("--hole-diameter", 0, allowed="(0, min(width, radius)) m"),
+        default=None,
+        help="round hole: diameter [m]",
+    )
+    g.add_argument(
+        "--groove-angle",
+        type=_number("--groove-angle", -360, 360, allowed="(-360, 360) deg"),
+        default=None,
+        help="axial groove: bushing angle of its centre [deg] (with --groove-arc and --groove-length)",
+    )
+    g.add_argument(
+        "--groove-arc",
+        type=_number("--groove-arc", 0, 360, allowed="(0, 360) deg"),
+        default=None,
+        help="axial groove: circumferential extent [deg]",
+    )
+    g.add_argument(
+        "--groove-length",
+        type=_number("--groove-length", 0, allowed="(0, width) m"),
+        default=None,
+        help="axial groove: axial length [m]",
+    )
+    g.add_argument(
+        "--circumferential-groove",
+        metavar="WIDTH",
+        type=_number("--circumferential-groove", 0, allowed="(0, width) m"),
+        default=None,
+        help="a full circumferential groove of this axial width [m]",
+    )
+    g.add_argument(
+        "--supply-pressure",
+        type=_number("--supply-pressure", 0, low_open=False, allowed=">= 0 Pa gauge"),
+        default=None,
+        help="oil pressure in the hole or groove [Pa gauge] (default 0)",
+    )
 
 
 SUPPLY_FLAGS = {  # supply -> its flags (argparse dest, flag)
     "hole": (("hole_angle", "--hole-angle"), ("hole_diameter", "--hole-diameter")),
-    "axial-groove": (("groove_angle", "--groove-angle"), ("groove_arc", "--groove-arc"),
-                     ("groove_length", "--groove-length")),
+    "axial-groove": (
+        ("groove_angle", "--groove-angle"),
+        ("groove_arc", "--groove-arc"),
+        ("groove_length", "--groove-length"),
+    ),
     "circumferential-groove": (("circumferential_groove", "--circumferential-groove"),),
 }
 
@@ -117,59 +201,120 @@ SUPPLY_FLAGS = {  # supply -> its flags (argparse dest, flag)
 def resolve_supply(args) -> None:
     """Check the oil supply options, set ``args.supply`` (``"none"`` or a key of SUPPLY_FLAGS) and
     ``args.inlet`` (default: ``"none"`` with a supply, ``"max-gap"`` without); errors name the flags."""
-    given = [name for name, flags in SUPPLY_FLAGS.items() if any(getattr(args, dest) is not None for dest, _ in flags)]
+    given = [
+        name
+        for name, flags in SUPPLY_FLAGS.items()
+        if any(getattr(args, dest) is not None for dest, _ in flags)
+    ]
     if len(given) > 1:
         flags = " and ".join(SUPPLY_FLAGS[name][0][1] for name in given)
-        raise InputError(f"{flags}: two oil supplies (allowed: one of a hole, an axial groove, a circumferential groove)")
+        raise InputError(
+            f"{flags}: two oil supplies (allowed: one of a hole, an axial groove, a circumferential groove)"
+        )
     args.supply = given[0] if given else "none"
     if args.supply != "none":
         missing = [flag for dest, flag in SUPPLY_FLAGS[args.supply] if getattr(args, dest) is None]
         if missing:
             present = [flag for dest, flag in SUPPLY_FLAGS[args.supply] if getattr(args, dest) is not None]
-            raise InputError(f"{' '.join(present)} without {' and '.join(missing)} (allowed: all of "
-                             f"{', '.join(flag for _, flag in SUPPLY_FLAGS[args.supply])})")
+            raise InputError(
+                f"{' '.join(present)} without {' and '.join(missing)} (allowed: all of "
+                f"{', '.join(flag for _, flag in SUPPLY_FLAGS[args.supply])})"
+            )
         if args.inlet == "max-gap":
-            raise InputError(f"--inlet max-gap with {SUPPLY_FLAGS[args.supply][0][1]} (allowed with an oil supply: "
-                             "--inlet none)")
+            raise InputError(
+                f"--inlet max-gap with {SUPPLY_FLAGS[args.supply][0][1]} (allowed with an oil supply: "
+                "--inlet none)"
+            )
         if args.supply == "hole" and not args.hole_diameter < min(args.width, args.radius):
-            raise InputError(f"--hole-diameter = {args.hole_diameter:g} is out of range (allowed: (0, min(width, "
-                             f"radius)) = (0, {min(args.width, args.radius):g}) m)")
+            raise InputError(
+                f"--hole-diameter = {args.hole_diameter:g} is out of range (allowed: (0, min(width, "
+                f"radius)) = (0, {min(args.width, args.radius):g}) m)"
+            )
         if args.supply == "axial-groove" and not args.groove_length < args.width:
-            raise InputError(f"--groove-length = {args.groove_length:g} is out of range (allowed: (0, width) = "
-                             f"(0, {args.width:g}) m)")
+            raise InputError(
+                f"--groove-length = {args.groove_length:g} is out of range (allowed: (0, width) = "
+                f"(0, {args.width:g}) m)"
+            )
         if args.supply == "circumferential-groove" and not args.circumferential_groove < args.width:
-            raise InputError(f"--circumferential-groove = {args.circumferential_groove:g} is out of range (allowed: "
-                             f"(0, width) = (0, {args.width:g}) m)")
+            raise InputError(
+                f"--circumferential-groove = {args.circumferential_groove:g} is out of range (allowed: "
+                f"(0, width) = (0, {args.width:g}) m)"
+            )
     elif args.supply_pressure is not None:
-        raise InputError("--supply-pressure without an oil supply (allowed: with --hole-*, --groove-* or "
-                         "--circumferential-groove)")
+        raise InputError(
+            "--supply-pressure without an oil supply (allowed: with --hole-*, --groove-* or "
+            "--circumferential-groove)"
+        )
     if args.inlet is None:
         args.inlet = "none" if args.supply != "none" else "max-gap"
 
 
 SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
-    "sigma_journal": ("--sigma-journal", _number("--sigma-journal", 0, low_open=False, allowed=">= 0 m"),
-                      "Rq roughness of the journal [m] (default 0: smooth)"),
-    "sigma_bushing": ("--sigma-bushing", _number("--sigma-bushing", 0, low_open=False, allowed=">= 0 m"),
-                      "Rq roughness of the bushing [m] (default 0: smooth)"),
-    "peklenik_gamma": ("--peklenik-gamma", _number("--peklenik-gamma", 0, allowed="> 0, fits in [1/9, 9]"),
-                       "Peklenik surface pattern parameter (default 1, isotropic)"),
-    "eta_beta_sigma": ("--eta-beta-sigma", _number("--eta-beta-sigma", 0, allowed="> 0"),
-                       "Greenwood-Tripp eta*beta*sigma (default 0.05)"),
-    "sigma_over_beta": ("--sigma-over-beta", _number("--sigma-over-beta", 0, allowed="> 0"),
-                        "Greenwood-Tripp sigma/beta (default 0.001)"),
-    "asperity_density": ("--asperity-density", _number("--asperity-density", 0, allowed="> 0 1/m^2"),
-                         "asperity density eta [1/m^2] (instead of --eta-beta-sigma)"),
-    "asperity_radius": ("--asperity-radius", _number("--asperity-radius", 0, allowed="> 0 m"),
-                        "asperity radius beta [m] (instead of --sigma-over-beta)"),
-    "E_journal": ("--E-journal", _number("--E-journal", 0, allowed="> 0 Pa"), "Young's modulus of the journal [Pa]"),
-    "nu_journal": ("--nu-journal", _number("--nu-journal", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the journal"),
-    "E_bushing": ("--E-bushing", _number("--E-bushing", 0, allowed="> 0 Pa"), "Young's modulus of the bushing [Pa]"),
-    "nu_bushing": ("--nu-bushing", _number("--nu-bushing", -1, 0.5, allowed="(-1, 0.5)"), "Poisson's ratio of the bushing"),
-    "E_composite": ("--E-composite", _number("--E-composite", 0, allowed="> 0 Pa"),
-                    "composite modulus E' [Pa] (instead of the moduli and Poisson's ratios)"),
-    "asperity_friction": ("--asperity-friction", _number("--asperity-friction", 0, 2, low_open=False, allowed="[0, 2)"),
-                          "asperity friction coefficient (default 0.1)"),
+    "sigma_journal": (
+        "--sigma-journal",
+        _number("--sigma-journal", 0, low_open=False, allowed=">= 0 m"),
+        "Rq roughness of the journal [m] (default 0: smooth)",
+    ),
+    "sigma_bushing": (
+        "--sigma-bushing",
+        _number("--sigma-bushing", 0, low_open=False, allowed=">= 0 m"),
+        "Rq roughness of the bushing [m] (default 0: smooth)",
+    ),
+    "peklenik_gamma": (
+        "--peklenik-gamma",
+        _number("--peklenik-gamma", 0, allowed="> 0, fits in [1/9, 9]"),
+        "Peklenik surface pattern parameter (default 1, isotropic)",
+    ),
+    "eta_beta_sigma": (
+        "--eta-beta-sigma",
+        _number("--eta-beta-sigma", 0, allowed="> 0"),
+        "Greenwood-Tripp eta*beta*sigma (default 0.05)",
+    ),
+    "sigma_over_beta": (
+        "--sigma-over-beta",
+        _number("--sigma-over-beta", 0, allowed="> 0"),
+        "Greenwood-Tripp sigma/beta (default 0.001)",
+    ),
+    "asperity_density": (
+        "--asperity-density",
+        _number("--asperity-density", 0, allowed="> 0 1/m^2"),
+        "asperity density eta [1/m^2] (instead of --eta-beta-sigma)",
+    ),
+    "asperity_radius": (
+        "--asperity-radius",
+        _number("--asperity-radius", 0, allowed="> 0 m"),
+        "asperity radius beta [m] (instead of --sigma-over-beta)",
+    ),
+    "E_journal": (
+        "--E-journal",
+        _number("--E-journal", 0, allowed="> 0 Pa"),
+        "Young's modulus of the journal [Pa]",
+    ),
+    "nu_journal": (
+        "--nu-journal",
+        _number("--nu-journal", -1, 0.5, allowed="(-1, 0.5)"),
+        "Poisson's ratio of the journal",
+    ),
+    "E_bushing": (
+        "--E-bushing",
+        _number("--E-bushing", 0, allowed="> 0 Pa"),
+        "Young's modulus of the bushing [Pa]",
+    ),
+    "nu_bushing": (
+        "--nu-bushing",
+        _number("--nu-bushing", -1, 0.5, allowed="(-1, 0.5)"),
+        "Poisson's ratio of the bushing",
+    ),
+    "E_composite": (
+        "--E-composite",
+        _number("--E-composite", 0, allowed="> 0 Pa"),
+        "composite modulus E' [Pa] (instead of the moduli and Poisson's ratios)",
+    ),
+    "asperity_friction": (
+        "--asperity-friction",
+        _number("--asperity-friction", 0, 2, low_open=False, allowed="[0, 2)"),
+        "asperity friction coefficient (default 0.1)",
+    ),
 }
 
 
@@ -178,8 +323,13 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("surfaces (mixed lubrication; rough when a sigma > 0)")
     for field, (flag, type_, help_text) in SURFACE_FLAGS.items():
         g.add_argument(flag, dest=field, type=type_, default=None, help=help_text)
-    g.add_argument("--asperity-model", dest="asperity_model", choices=("exact", "fit"), default=None,
-                   help="F_5/2 by quadrature (exact, default) or the common fit")
+    g.add_argument(
+        "--asperity-model",
+        dest="asperity_model",
+        choices=("exact", "fit"),
+        default=None,
+        help="F_5/2 by quadrature (exact, default) or the common fit",
+    )
 
 
 def surface_from_args(args):
@@ -201,28 +351,66 @@ def surface_from_args(args):
 def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
     """The bushing's deformation and the oil's piezoviscosity (DESIGN 7; solver.film.ehd, solver.film.viscosity)."""
     g = parser.add_argument_group("elastic bushing and piezoviscous oil")
-    g.add_argument("--elastic", choices=("none", "winkler", "fe"), default="none",
-                   help="bushing deformation: none (rigid, default), winkler (thin bushing on a rigid housing, "
-                        "needs --bushing-thickness) or fe (finite-element eye and bushing, cached on disk; needs "
-                        "--bushing-thickness, --eye-outer-radius and --inlet none)")
-    g.add_argument("--bushing-thickness", type=_number("--bushing-thickness", 0, allowed="> 0 m"), default=None,
-                   help="bushing wall thickness [m] (moduli: --E-bushing, --nu-bushing)")
-    g.add_argument("--eye-outer-radius", type=_number("--eye-outer-radius", 0, allowed="> radius + bushing thickness"),
-                   default=None, help="outer radius of the housing (the rod's eye) [m]")
-    g.add_argument("--E-housing", type=_number("--E-housing", 0, allowed="> 0 Pa"), default=210e9,
-                   help="Young's modulus of the housing (eye) [Pa] (default 210e9, steel)")
-    g.add_argument("--nu-housing", type=_number("--nu-housing", 0, 0.5, low_open=False, allowed="[0, 0.5)"),
-                   default=0.3, help="Poisson's ratio of the housing (default 0.3)")
-    g.add_argument("--shank-angle", type=_number("--shank-angle", -360, 360, allowed="(-360, 360) deg"),
-                   default=90.0, help="fe: bushing angle of the middle of the clamped arc where the eye joins the "
-                                      "shank (default 90: +y, opposite the load, as a rod in tension)")
-    g.add_argument("--shank-half-angle", type=_number("--shank-half-angle", 0, 90, allowed="(0, 90) deg"),
-                   default=30.0, help="fe: half angle of that arc (default 30 deg)")
-    g.add_argument("--compliance-modes", type=int, default=72, help="fe: modes of the compliance kept (default 72)")
-    g.add_argument("--piezoviscosity", choices=("none", "barus", "roelands"), default="none",
-                   help="pressure dependence of the viscosity (default none)")
-    g.add_argument("--pressure-viscosity", type=_number("--pressure-viscosity", 0, 1e-7, allowed="(0, 1e-7) 1/Pa"),
-                   default=1.5e-8, help="pressure-viscosity coefficient alpha [1/Pa] (default 1.5e-8)")
+    g.add_argument(
+        "--elastic",
+        choices=("none", "winkler", "fe"),
+        default="none",
+        help="bushing deformation: none (rigid, default), winkler (thin bushing on a rigid housing, "
+        "needs --bushing-thickness) or fe (finite-element eye and bushing, cached on disk; needs "
+        "--bushing-thickness, --eye-outer-radius and --inlet none)",
+    )
+    g.add_argument(
+        "--bushing-thickness",
+        type=_number("--bushing-thickness", 0, allowed="> 0 m"),
+        default=None,
+        help="bushing wall thickness [m] (moduli: --E-bushing, --nu-bushing)",
+    )
+    g.add_argument(
+        "--eye-outer-radius",
+        type=_number("--eye-outer-radius", 0, allowed="> radius + bushing thickness"),
+        default=None,
+        help="outer radius of the housing (the rod's eye) [m]",
+    )
+    g.add_argument(
+        "--E-housing",
+        type=_number("--E-housing", 0, allowed="> 0 Pa"),
+        default=210e9,
+        help="Young's modulus of the housing (eye) [Pa] (default 210e9, steel)",
+    )
+    g.add_argument(
+        "--nu-housing",
+        type=_number("--nu-housing", 0, 0.5, low_open=False, allowed="[0, 0.5)"),
+        default=0.3,
+        help="Poisson's ratio of the housing (default 0.3)",
+    )
+    g.add_argument(
+        "--shank-angle",
+        type=_number("--shank-angle", -360, 360, allowed="(-360, 360) deg"),
+        default=90.0,
+        help="fe: bushing angle of the middle of the clamped arc where the eye joins the "
+        "shank (default 90: +y, opposite the load, as a rod in tension)",
+    )
+    g.add_argument(
+        "--shank-half-angle",
+        type=_number("--shank-half-angle", 0, 90, allowed="(0, 90) deg"),
+        default=30.0,
+        help="fe: half angle of that arc (default 30 deg)",
+    )
+    g.add_argument(
+        "--compliance-modes", type=int, default=72, help="fe: modes of the compliance kept (default 72)"
+    )
+    g.add_argument(
+        "--piezoviscosity",
+        choices=("none", "barus", "roelands"),
+        default="none",
+        help="pressure dependence of the viscosity (default none)",
+    )
+    g.add_argument(
+        "--pressure-viscosity",
+        type=_number("--pressure-viscosity", 0, 1e-7, allowed="(0, 1e-7) 1/Pa"),
+        default=1.5e-8,
+        help="pressure-viscosity coefficient alpha [1/Pa] (default 1.5e-8)",
+    )
 
 
 def elastic_from_args(args, surface, comm):
@@ -231,11 +419,21 @@ def elastic_from_args(args, surface, comm):
     from solver.film.ehd import bushing_model  # dolfinx: after the arguments are checked
     from solver.film.viscosity import viscosity_law
 
-    elastic = bushing_model(args.elastic, radius=args.radius, width=args.width, bushing_thickness=args.bushing_thickness,
-                            eye_outer_radius=args.eye_outer_radius, E_eye=args.E_housing, nu_eye=args.nu_housing,
-                            E_bushing=surface.E_bushing, nu_bushing=surface.nu_bushing,
-                            shank_half_angle_deg=args.shank_half_angle, modes=args.compliance_modes, comm=comm,
-                            shank_angle_deg=args.shank_angle)
+    elastic = bushing_model(
+        args.elastic,
+        radius=args.radius,
+        width=args.width,
+        bushing_thickness=args.bushing_thickness,
+        eye_outer_radius=args.eye_outer_radius,
+        E_eye=args.E_housing,
+        nu_eye=args.nu_housing,
+        E_bushing=surface.E_bushing,
+        nu_bushing=surface.nu_bushing,
+        shank_half_angle_deg=args.shank_half_angle,
+        modes=args.compliance_modes,
+        comm=comm,
+        shank_angle_deg=args.shank_angle,
+    )
     return elastic, viscosity_law(args.piezoviscosity, args.pressure_viscosity, args.viscosity)
 
 
@@ -245,16 +443,24 @@ def _check_elastic(args, comm) -> None:
     if args.bushing_thickness is None:
         raise InputError(f"--elastic {args.elastic} needs --bushing-thickness (allowed: > 0 m)")
     if comm.size != 1 or getattr(args, "degree", 1) != 1:
-        raise InputError(f"--elastic {args.elastic} runs on one rank with --degree 1 (allowed: no mpirun, degree 1)")
+        raise InputError(
+            f"--elastic {args.elastic} runs on one rank with --degree 1 (allowed: no mpirun, degree 1)"
+        )
     if args.elastic == "fe":
         if args.eye_outer_radius is None or not args.eye_outer_radius > args.radius + args.bushing_thickness:
-            raise InputError(f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
-                             f"bushing thickness = {args.radius + args.bushing_thickness:g} m)")
+            raise InputError(
+                f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
+                f"bushing thickness = {args.radius + args.bushing_thickness:g} m)"
+            )
         if args.inlet == "max-gap":
-            raise InputError("--elastic fe with --inlet max-gap: the max-gap frame turns the film against the eye "
-                             "(allowed: --inlet none)")
+            raise InputError(
+                "--elastic fe with --inlet max-gap: the max-gap frame turns the film against the eye "
+                "(allowed: --inlet none)"
+            )
         if not 1 <= args.compliance_modes <= 1000:
-            raise InputError(f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [1, 1000])")
+            raise InputError(
+                f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [1, 1000])"
+            )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -263,19 +469,38 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_surface_arguments(parser)
     add_elastic_arguments(parser)
     mode = parser.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--eccentricity", type=_number("--eccentricity", 0, 1, low_open=False, allowed="[0, 1)"),
-                      help="eccentricity ratio e/c")
+    mode.add_argument(
+        "--eccentricity",
+        type=_number("--eccentricity", 0, 1, low_open=False, allowed="[0, 1)"),
+        help="eccentricity ratio e/c",
+    )
     mode.add_argument("--load", type=_number("--load", 0, allowed="> 0 N"), help="load on the journal [N]")
-    parser.add_argument("--attitude", type=_number("--attitude", -360, 360, allowed="(-360, 360) deg"),
-                        default=None, help="with --eccentricity: angle of the line of centres from the load line [deg]")
-    parser.add_argument("--eccentricity-rate", type=_number("--eccentricity-rate", allowed="a finite number of 1/s"),
-                        default=0.0, help="d(eps)/dt along the line of centres [1/s] (squeeze)")
+    parser.add_argument(
+        "--attitude",
+        type=_number("--attitude", -360, 360, allowed="(-360, 360) deg"),
+        default=None,
+        help="with --eccentricity: angle of the line of centres from the load line [deg]",
+    )
+    parser.add_argument(
+        "--eccentricity-rate",
+        type=_number("--eccentricity-rate", allowed="a finite number of 1/s"),
+        default=0.0,
+        help="d(eps)/dt along the line of centres [1/s] (squeeze)",
+    )
     n = parser.add_argument_group("numerics and output")
-    n.add_argument("--mesh-size", type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1] (element size / R)"),
-                   default=None, help="element size / radius (default: 0.07, and at least 10 elements across the half width)")
-    n.add_argument("--degree", type=int, choices=(1, 2), default=1, help="pressure element degree (default 1)")
+    n.add_argument(
+        "--mesh-size",
+        type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1] (element size / R)"),
+        default=None,
+        help="element size / radius (default: 0.07, and at least 10 elements across the half width)",
+    )
+    n.add_argument(
+        "--degree", type=int, choices=(1, 2), default=1, help="pressure element degree (default 1)"
+    )
     n.add_argument("--json", action="store_true", help="print one JSON object")
-    n.add_argument("--output", type=Path, default=None, help="directory for the XDMF field and the PNG pressure map")
+    n.add_argument(
+        "--output", type=Path, default=None, help="directory for the XDMF field and the PNG pressure map"
+    )
 
 
 def _check(args) -> None:
@@ -299,15 +524,23 @@ def resolve_viscosity(args) -> None:
     given = args.grade is not None or any(v is not None for v in (args.nu40, args.nu100, args.density))
     if args.viscosity is not None:
         if given or args.temperature is not None:
-            raise InputError("--viscosity with the oil's data (--grade, --kinematic-viscosity-*, --density, "
-                             "--temperature) (allowed: one of the two)")
+            raise InputError(
+                "--viscosity with the oil's data (--grade, --kinematic-viscosity-*, --density, "
+                "--temperature) (allowed: one of the two)"
+            )
         return
-    flags = {"grade": "--grade", "kinematic_viscosity_40C": "--kinematic-viscosity-40C",
-             "kinematic_viscosity_100C": "--kinematic-viscosity-100C", "density_15C": "--density"}
+    flags = {
+        "grade": "--grade",
+        "kinematic_viscosity_40C": "--kinematic-viscosity-40C",
+        "kinematic_viscosity_100C": "--kinematic-viscosity-100C",
+        "density_15C": "--density",
+    }
     oil = oil_data(args.grade, args.nu40, args.nu100, args.density, names=flags)
     if oil is None:
-        raise InputError("no viscosity (allowed: --viscosity, --grade, or --kinematic-viscosity-40C with "
-                         "--kinematic-viscosity-100C and --density)")
+        raise InputError(
+            "no viscosity (allowed: --viscosity, --grade, or --kinematic-viscosity-40C with "
+            "--kinematic-viscosity-100C and --density)"
+        )
     args.temperature = 100.0 if args.temperature is None else args.temperature
     args.viscosity = float(oil.dynamic_viscosity(args.temperature))
 
@@ -318,15 +551,29 @@ def bearing_from_args(args):
 
     supply = {}
     if args.supply == "hole":
-        supply = {"supply_hole_angle": math.radians(args.hole_angle), "supply_hole_diameter": args.hole_diameter}
+        supply = {
+            "supply_hole_angle": math.radians(args.hole_angle),
+            "supply_hole_diameter": args.hole_diameter,
+        }
     elif args.supply == "axial-groove":
-        supply = {"groove": "axial", "groove_angle": math.radians(args.groove_angle),
-                  "groove_arc": math.radians(args.groove_arc), "groove_length": args.groove_length}
+        supply = {
+            "groove": "axial",
+            "groove_angle": math.radians(args.groove_angle),
+            "groove_arc": math.radians(args.groove_arc),
+            "groove_length": args.groove_length,
+        }
     elif args.supply == "circumferential-groove":
         supply = {"groove": "circumferential", "groove_width": args.circumferential_groove}
-    return Bearing(radius=args.radius, width=args.width, clearance=args.clearance, viscosity=args.viscosity,
-                   cavitation_pressure=args.cavitation_pressure, inlet=args.inlet,
-                   supply_pressure=args.supply_pressure or 0.0, **supply)
+    return Bearing(
+        radius=args.radius,
+        width=args.width,
+        clearance=args.clearance,
+        viscosity=args.viscosity,
+        cavitation_pressure=args.cavitation_pressure,
+        inlet=args.inlet,
+        supply_pressure=args.supply_pressure or 0.0,
+        **supply,
+    )
 
 
 def run(args, comm) -> int:
@@ -348,10 +595,19 @@ def run(args, comm) -> int:
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
     elastic, piezoviscosity = elastic_from_args(args, surface, comm)
-    model = FilmModel(bearing, comm, omega_ref=omega_ref, mesh_size=args.mesh_size,
-                      degree=args.degree, roughness=surface.roughness(), contact=surface.contact(),
-                      slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3, elastic=elastic,
-                      piezoviscosity=piezoviscosity, cavitation=args.cavitation)
+    model = FilmModel(
+        bearing,
+        comm,
+        omega_ref=omega_ref,
+        mesh_size=args.mesh_size,
+        degree=args.degree,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+        slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3,
+        elastic=elastic,
+        piezoviscosity=piezoviscosity,
+        cavitation=args.cavitation,
+    )
     setup_time = time.perf_counter() - start
     c = args.clearance
     load_angle = -math.pi / 2  # the load acts along -y
@@ -359,13 +615,22 @@ def run(args, comm) -> int:
     if args.load is not None:
         W = (args.load * math.cos(load_angle), args.load * math.sin(load_angle))
         eq = equilibrium(model, W, omega_journal=omega)
-        kin, result, newton_iterations, residual = eq.kinematics, eq.result, eq.newton_iterations, eq.force_residual
+        kin, result, newton_iterations, residual = (
+            eq.kinematics,
+            eq.result,
+            eq.newton_iterations,
+            eq.force_residual,
+        )
     else:
         sense = 1.0 if omega >= 0 else -1.0
         angle = load_angle + sense * math.radians(args.attitude or 0.0)
         direction = (math.cos(angle), math.sin(angle))
-        kin = Kinematics((args.eccentricity * c * direction[0], args.eccentricity * c * direction[1]),
-                         (rate * c * direction[0], rate * c * direction[1]), omega, 0.0)
+        kin = Kinematics(
+            (args.eccentricity * c * direction[0], args.eccentricity * c * direction[1]),
+            (rate * c * direction[0], rate * c * direction[1]),
+            omega,
+            0.0,
+        )
         result = model.solve(kin)
         newton_iterations = result.iterations
     eps = math.hypot(*kin.ecc) / c
@@ -379,17 +644,30 @@ def run(args, comm) -> int:
     speed_for_So = abs(omega) if omega != 0 else abs(rate)
     So = load * psi**2 / (args.width * 2 * args.radius * args.viscosity * speed_for_So)
     report = {
-        "load_N": load, "attitude_deg": attitude, "eccentricity": eps, "sommerfeld_So": So,
-        "p_max_Pa": result.p_max, "h_min_m": result.h_min, "friction_torque_Nm": result.torque_journal,
-        "side_flow_m3_per_s": result.side_flow, "dofs": model.dofs, "newton_iterations": newton_iterations,
+        "load_N": load,
+        "attitude_deg": attitude,
+        "eccentricity": eps,
+        "sommerfeld_So": So,
+        "p_max_Pa": result.p_max,
+        "h_min_m": result.h_min,
+        "friction_torque_Nm": result.torque_journal,
+        "side_flow_m3_per_s": result.side_flow,
+        "dofs": model.dofs,
+        "newton_iterations": newton_iterations,
         "solve_time_s": time.perf_counter() - start - setup_time,
         # additions (keys above are the interface)
-        "force_x_N": result.force[0], "force_y_N": result.force[1],
-        "friction_torque_bushing_Nm": result.torque_bushing, "p_max_angle_deg": math.degrees(result.p_max_theta),
-        "p_max_z_m": result.p_max_z, "ecc_x_m": kin.ecc[0], "ecc_y_m": kin.ecc[1],
-        "vi_iterations": result.iterations, "setup_time_s": setup_time,
+        "force_x_N": result.force[0],
+        "force_y_N": result.force[1],
+        "friction_torque_bushing_Nm": result.torque_bushing,
+        "p_max_angle_deg": math.degrees(result.p_max_theta),
+        "p_max_z_m": result.p_max_z,
+        "ecc_x_m": kin.ecc[0],
+        "ecc_y_m": kin.ecc[1],
+        "vi_iterations": result.iterations,
+        "setup_time_s": setup_time,
         # mixed lubrication
-        "hydro_load_N": result.hydro_load, "asperity_load_N": result.asperity_load,
+        "hydro_load_N": result.hydro_load,
+        "asperity_load_N": result.asperity_load,
         "asperity_share": result.asperity_load / load if load > 0 else 0.0,
         "contact_area_ratio": result.contact_area_ratio,
         "friction_coefficient": abs(result.torque_journal) / (args.radius * load) if load > 0 else math.inf,
@@ -397,15 +675,20 @@ def run(args, comm) -> int:
         "power_loss_W": abs(result.torque_journal * omega),
         "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
         # elastic bushing and piezoviscous oil
-        "viscosity_Pa_s": args.viscosity, "temperature_C": args.temperature,
-        "elastic": args.elastic, "piezoviscosity": args.piezoviscosity,
+        "viscosity_Pa_s": args.viscosity,
+        "temperature_C": args.temperature,
+        "elastic": args.elastic,
+        "piezoviscosity": args.piezoviscosity,
         "max_deformation_m": result.max_deformation,
         "max_deformation_angle_deg": math.degrees(result.max_deformation_theta),
         # oil supply
-        "inlet": args.inlet, "supply": args.supply, "supply_pressure_Pa": args.supply_pressure or 0.0,
+        "inlet": args.inlet,
+        "supply": args.supply,
+        "supply_pressure_Pa": args.supply_pressure or 0.0,
         "supply_flow_m3_per_s": result.supply_flow,
         # cavitation
-        "cavitation": args.cavitation, "cavitated_area_ratio": result.cavitated_area_ratio,
+        "cavitation": args.cavitation,
+        "cavitated_area_ratio": result.cavitated_area_ratio,
     }
     if residual is not None:
         report["force_residual_N"] = residual
@@ -416,8 +699,11 @@ def run(args, comm) -> int:
             out.mkdir(parents=True, exist_ok=True)
         comm.Barrier()
         io.write_film_fields(out, "bearing_pressure", model)
-        io.plot_pressure_map(out / "bearing_pressure.png", model,
-                             title=f"eps = {eps:.3f}, load = {load:.4g} N, p_max = {result.p_max / 1e6:.3g} MPa")
+        io.plot_pressure_map(
+            out / "bearing_pressure.png",
+            model,
+            title=f"eps = {eps:.3f}, load = {load:.4g} N, p_max = {result.p_max / 1e6:.3g} MPa",
+        )
         if comm.rank == 0:
             io.write_json(out / "bearing.json", report)
     model.close()
@@ -431,22 +717,33 @@ def run(args, comm) -> int:
 
 def _print_table(report: dict, stream) -> None:
     rows = [
-        ("eccentricity ratio", report["eccentricity"], ""), ("load", report["load_N"], "N"),
-        ("attitude angle", report["attitude_deg"], "deg"), ("Sommerfeld number So", report["sommerfeld_So"], ""),
-        ("peak pressure", report["p_max_Pa"] / 1e6, "MPa"), ("minimum film thickness", report["h_min_m"] * 1e6, "um"),
+        ("eccentricity ratio", report["eccentricity"], ""),
+        ("load", report["load_N"], "N"),
+        ("attitude angle", report["attitude_deg"], "deg"),
+        ("Sommerfeld number So", report["sommerfeld_So"], ""),
+        ("peak pressure", report["p_max_Pa"] / 1e6, "MPa"),
+        ("minimum film thickness", report["h_min_m"] * 1e6, "um"),
         ("friction torque on journal", report["friction_torque_Nm"], "N m"),
-        ("side flow", report["side_flow_m3_per_s"] * 6e4, "l/min"), ("dofs", report["dofs"], ""),
-        ("Newton iterations", report["newton_iterations"], ""), ("solve time", report["solve_time_s"], "s"),
+        ("side flow", report["side_flow_m3_per_s"] * 6e4, "l/min"),
+        ("dofs", report["dofs"], ""),
+        ("Newton iterations", report["newton_iterations"], ""),
+        ("solve time", report["solve_time_s"], "s"),
     ]
     if "force_residual_N" in report:
         rows.append(("force residual", report["force_residual_N"], "N"))
     if report["supply"] != "none":
         rows.append(("supply flow", report["supply_flow_m3_per_s"] * 6e4, "l/min"))
     if report["h_min_over_sigma"] is not None:
-        rows += [("hydrodynamic load", report["hydro_load_N"], "N"), ("asperity load", report["asperity_load_N"], "N"),
-                 ("h_min / sigma", report["h_min_over_sigma"], ""),
-                 ("real contact area ratio", report["contact_area_ratio"], "")]
-    rows += [("friction coefficient", report["friction_coefficient"], ""), ("power loss", report["power_loss_W"], "W")]
+        rows += [
+            ("hydrodynamic load", report["hydro_load_N"], "N"),
+            ("asperity load", report["asperity_load_N"], "N"),
+            ("h_min / sigma", report["h_min_over_sigma"], ""),
+            ("real contact area ratio", report["contact_area_ratio"], ""),
+        ]
+    rows += [
+        ("friction coefficient", report["friction_coefficient"], ""),
+        ("power loss", report["power_loss_W"], "W"),
+    ]
     if report["elastic"] != "none":
         rows.append(("largest bushing deformation", report["max_deformation_m"] * 1e6, "um"))
     rows.append((f"cavitated area ({report['cavitation']})", report["cavitated_area_ratio"], ""))

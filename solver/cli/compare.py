@@ -24,15 +24,26 @@ from solver.study.results import is_complete, nan_reduce
 from solver.study.thermal import cycle_mean
 
 # (variable, label, scale to the plotted unit)
-PANELS = (("h_min", "h_min [um]", 1e6), ("p_max", "p_max [MPa]", 1e-6), ("F_asperity", "asperity force [N]", 1.0),
-          ("friction_power", "friction power [W]", 1.0), ("cavitated_area_ratio", "cavitated area ratio", 1.0))
+PANELS = (
+    ("h_min", "h_min [um]", 1e6),
+    ("p_max", "p_max [MPa]", 1e-6),
+    ("F_asperity", "asperity force [N]", 1.0),
+    ("friction_power", "friction power [W]", 1.0),
+    ("cavitated_area_ratio", "cavitated area ratio", 1.0),
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``compare`` command."""
-    parser.add_argument("runs", nargs="+", metavar="RUN", help="case directory (with results/results.nc) or a "
-                                                               "results.nc file; at least one")
-    parser.add_argument("--output", type=Path, default=None, metavar="PNG", help="write the comparison plot here")
+    parser.add_argument(
+        "runs",
+        nargs="+",
+        metavar="RUN",
+        help="case directory (with results/results.nc) or a results.nc file; at least one",
+    )
+    parser.add_argument(
+        "--output", type=Path, default=None, metavar="PNG", help="write the comparison plot here"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
 
 
@@ -42,8 +53,10 @@ def results_path(run: str) -> Path:
     if path.is_dir():
         path = path / "results" / "results.nc"
     if not is_complete(path):
-        raise InputError(f"RUN = {run!r} is out of range (allowed: a case directory with a finished run's "
-                         "results/results.nc, or such a file)")
+        raise InputError(
+            f"RUN = {run!r} is out of range (allowed: a case directory with a finished run's "
+            "results/results.nc, or such a file)"
+        )
     return path
 
 
@@ -51,21 +64,30 @@ def summary(ds: xr.Dataset, label: str) -> dict:
     """The row of one run (SI)."""
     angle = ds.crank_angle.values
     deformation = ds["deformation_max"].values if "deformation_max" in ds else np.full(angle.size, np.nan)
-    return {"run": label, "elastic": str(ds.attrs.get("small_end.elastic", "none")),
-            "piezoviscosity": str(ds.attrs.get("oil.piezoviscosity", "none")),
-            "h_min_min_m": nan_reduce(np.nanmin, ds.h_min.values), "p_max_max_Pa": nan_reduce(np.nanmax, ds.p_max.values),
-            "F_asperity_max_N": nan_reduce(np.nanmax, ds.F_asperity.values),
-            "friction_power_mean_W": cycle_mean(ds.friction_power.values, angle),
-            "deformation_max_m": nan_reduce(np.nanmax, deformation),
-            "cavitation": str(ds.attrs.get("oil.cavitation", "reynolds")),
-            "cavitated_area_mean": (cycle_mean(ds.cavitated_area_ratio.values, angle) if "cavitated_area_ratio" in ds
-                                    else float("nan"))}
+    return {
+        "run": label,
+        "elastic": str(ds.attrs.get("small_end.elastic", "none")),
+        "piezoviscosity": str(ds.attrs.get("oil.piezoviscosity", "none")),
+        "h_min_min_m": nan_reduce(np.nanmin, ds.h_min.values),
+        "p_max_max_Pa": nan_reduce(np.nanmax, ds.p_max.values),
+        "F_asperity_max_N": nan_reduce(np.nanmax, ds.F_asperity.values),
+        "friction_power_mean_W": cycle_mean(ds.friction_power.values, angle),
+        "deformation_max_m": nan_reduce(np.nanmax, deformation),
+        "cavitation": str(ds.attrs.get("oil.cavitation", "reynolds")),
+        "cavitated_area_mean": (
+            cycle_mean(ds.cavitated_area_ratio.values, angle)
+            if "cavitated_area_ratio" in ds
+            else float("nan")
+        ),
+    }
 
 
 def plot(datasets: dict[str, xr.Dataset], path: Path) -> None:
     """One panel per PANELS variable (that some run has) over the crank angle, one line per run."""
     panels = [panel for panel in PANELS if any(panel[0] in ds for ds in datasets.values())]
-    fig, axes = io.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True, constrained_layout=True)
+    fig, axes = io.subplots(
+        len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True, constrained_layout=True
+    )
     for ax, (name, label, scale) in zip(axes, panels):
         for run, ds in datasets.items():
             if name in ds:
@@ -103,14 +125,18 @@ def run(args: argparse.Namespace, comm) -> int:
             if args.json:
                 print(json.dumps({"runs": rows, "plot": str(args.output) if args.output else None}))
             else:
-                print(f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} {'max F_asp':>10} "
-                      f"{'friction':>9} {'max w':>8} {'cavitation':>10} {'cav. area':>9}")
+                print(
+                    f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} {'max F_asp':>10} "
+                    f"{'friction':>9} {'max w':>8} {'cavitation':>10} {'cav. area':>9}"
+                )
                 for row in rows:
-                    print(f"{row['run']:<28} {row['elastic']:>8} {row['piezoviscosity']:>8} "
-                          f"{row['h_min_min_m'] * 1e6:>8.3f} um {row['p_max_max_Pa'] / 1e6:>6.1f} MPa "
-                          f"{row['F_asperity_max_N']:>8.1f} N {row['friction_power_mean_W']:>7.3f} W "
-                          f"{row['deformation_max_m'] * 1e6:>5.2f} um {row['cavitation']:>10} "
-                          f"{row['cavitated_area_mean']:>9.3f}")
+                    print(
+                        f"{row['run']:<28} {row['elastic']:>8} {row['piezoviscosity']:>8} "
+                        f"{row['h_min_min_m'] * 1e6:>8.3f} um {row['p_max_max_Pa'] / 1e6:>6.1f} MPa "
+                        f"{row['F_asperity_max_N']:>8.1f} N {row['friction_power_mean_W']:>7.3f} W "
+                        f"{row['deformation_max_m'] * 1e6:>5.2f} um {row['cavitation']:>10} "
+                        f"{row['cavitated_area_mean']:>9.3f}"
+                    )
                 if args.output is not None:
                     print(f"plot: {args.output}")
     finally:

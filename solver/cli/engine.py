@@ -29,16 +29,33 @@ logger = logging.getLogger(__name__)
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``engine`` command."""
     parser.add_argument("case", metavar="CASE", help="case directory (with case.toml) or a case TOML file")
-    parser.add_argument("--rpm", type=float, default=None,
-                        help="constant crank speed in rpm (replaces engine.speed_rpm and engine.speed_file)")
-    parser.add_argument("--step-deg", type=float, default=None,
-                        help="crank-angle step of the outputs in degrees (default: solver.step_deg)")
-    parser.add_argument("--integrator", choices=("kinematic", "explicit", "implicit"), default="kinematic",
-                        help="kinematic: exact constraint solution per crank angle (default); "
-                             "explicit/implicit: error-controlled time integration (RK45 / ESDIRK32)")
+    parser.add_argument(
+        "--rpm",
+        type=float,
+        default=None,
+        help="constant crank speed in rpm (replaces engine.speed_rpm and engine.speed_file)",
+    )
+    parser.add_argument(
+        "--step-deg",
+        type=float,
+        default=None,
+        help="crank-angle step of the outputs in degrees (default: solver.step_deg)",
+    )
+    parser.add_argument(
+        "--integrator",
+        choices=("kinematic", "explicit", "implicit"),
+        default="kinematic",
+        help="kinematic: exact constraint solution per crank angle (default); "
+        "explicit/implicit: error-controlled time integration (RK45 / ESDIRK32)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the summary")
-    parser.add_argument("--output", type=Path, default=None, metavar="DIR",
-                        help="write engine_ideal.csv and engine_ideal.png into DIR")
+    parser.add_argument(
+        "--output",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write engine_ideal.csv and engine_ideal.png into DIR",
+    )
 
 
 def summary(cycle: EngineCycle, name: str, speed_rpm: float, step_deg: float) -> dict:

@@ -38,14 +38,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_geometry_arguments(parser)
     add_surface_arguments(parser)
     parser.add_argument("--load", required=True, type=_number("--load", 0, allowed="> 0 N"), help="load [N]")
-    parser.add_argument("--speed-min", type=_number("--speed-min", 0, allowed="> 0 rpm"), default=1.0,
-                        help="lowest journal speed [rpm] (default 1)")
-    parser.add_argument("--speed-max", type=_number("--speed-max", 0, allowed="> 0 rpm"), default=10000.0,
-                        help="highest journal speed [rpm] (default 10000)")
+    parser.add_argument(
+        "--speed-min",
+        type=_number("--speed-min", 0, allowed="> 0 rpm"),
+        default=1.0,
+        help="lowest journal speed [rpm] (default 1)",
+    )
+    parser.add_argument(
+        "--speed-max",
+        type=_number("--speed-max", 0, allowed="> 0 rpm"),
+        default=10000.0,
+        help="highest journal speed [rpm] (default 10000)",
+    )
     parser.add_argument("--points", type=int, default=25, help="number of speeds, log-spaced (default 25)")
-    parser.add_argument("--mesh-size", type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1]"),
-                        default=None, help="element size / radius (default: 0.07, and at least 10 elements across the half width)")
-    parser.add_argument("--output", type=Path, default=Path("stribeck"), help="output directory (default ./stribeck)")
+    parser.add_argument(
+        "--mesh-size",
+        type=_number("--mesh-size", 0, 1, high_open=False, allowed="(0, 1]"),
+        default=None,
+        help="element size / radius (default: 0.07, and at least 10 elements across the half width)",
+    )
+    parser.add_argument(
+        "--output", type=Path, default=Path("stribeck"), help="output directory (default ./stribeck)"
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
@@ -54,8 +68,19 @@ def sweep(model, load: float, speeds_rpm: np.ndarray, radius: float, progress=No
     from solver.film.bearing import equilibrium  # dolfinx: after the arguments are checked
 
     order = np.argsort(speeds_rpm)[::-1]
-    keys = ("eccentricity", "h_min", "h_min_over_sigma", "friction_coefficient", "hydro_load", "asperity_load",
-            "friction_torque", "asperity_friction_torque", "power_loss", "p_max", "contact_area_ratio")
+    keys = (
+        "eccentricity",
+        "h_min",
+        "h_min_over_sigma",
+        "friction_coefficient",
+        "hydro_load",
+        "asperity_load",
+        "friction_torque",
+        "asperity_friction_torque",
+        "power_loss",
+        "p_max",
+        "contact_area_ratio",
+    )
     out = {k: np.full(len(speeds_rpm), np.nan) for k in keys}
     W = (0.0, -load)
     guess = None
@@ -69,7 +94,10 @@ def sweep(model, load: float, speeds_rpm: np.ndarray, radius: float, progress=No
         out["h_min_over_sigma"][i] = r.h_min_over_sigma
         out["friction_coefficient"][i] = abs(r.torque_journal) / (radius * r.load)
         out["hydro_load"][i], out["asperity_load"][i] = r.hydro_load, r.asperity_load
-        out["friction_torque"][i], out["asperity_friction_torque"][i] = r.torque_journal, r.asperity_torque_journal
+        out["friction_torque"][i], out["asperity_friction_torque"][i] = (
+            r.torque_journal,
+            r.asperity_torque_journal,
+        )
         out["power_loss"][i] = abs(r.torque_journal * omega)
         out["p_max"][i], out["contact_area_ratio"][i] = r.p_max, r.contact_area_ratio
         if progress is not None:
@@ -84,7 +112,9 @@ def run(args, comm) -> int:
     if args.points < 2:
         raise InputError(f"--points = {args.points} is out of range (allowed: >= 2)")
     if not args.speed_min < args.speed_max:
-        raise InputError(f"--speed-min = {args.speed_min:g} is out of range (allowed: < --speed-max = {args.speed_max:g})")
+        raise InputError(
+            f"--speed-min = {args.speed_min:g} is out of range (allowed: < --speed-max = {args.speed_max:g})"
+        )
     from solver.film.bearing import FilmModel  # dolfinx: after the arguments are checked
 
     bearing = bearing_from_args(args)
@@ -95,9 +125,15 @@ def run(args, comm) -> int:
     # Asperity friction is smoothed below 1e-3 of the slowest sliding speed, so that it is fully
     # developed (f -> mu_f) at every speed of the sweep.
     slowest_sliding = args.radius * args.speed_min * 2 * math.pi / 60
-    with FilmModel(bearing, comm, omega_ref=args.speed_max * 2 * math.pi / 60, roughness=surface.roughness(),
-                   contact=surface.contact(), mesh_size=args.mesh_size,
-                   slip_regularisation=1e-3 * slowest_sliding) as model:
+    with FilmModel(
+        bearing,
+        comm,
+        omega_ref=args.speed_max * 2 * math.pi / 60,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+        mesh_size=args.mesh_size,
+        slip_regularisation=1e-3 * slowest_sliding,
+    ) as model:
         bar = None
         if comm.rank == 0 and not args.json:
             bar = tqdm(total=len(speeds), desc="stribeck", unit="speed", file=sys.stderr)
@@ -112,20 +148,37 @@ def run(args, comm) -> int:
             bar.close()
     hersey = args.viscosity * (speeds / 60) / pressure
     petroff = 2 * math.pi**2 * hersey * args.radius / args.clearance
-    ds = io.stribeck_dataset(speeds, hersey, petroff, data, attrs={
-        "load_N": args.load, "radius_m": args.radius, "width_m": args.width, "clearance_m": args.clearance,
-        "viscosity_Pa_s": args.viscosity, "temperature_C": "" if args.temperature is None else args.temperature,
-        "sigma_m": surface.sigma, "asperity_friction": surface.asperity_friction,
-        "wall_time_s": time.perf_counter() - start})
+    ds = io.stribeck_dataset(
+        speeds,
+        hersey,
+        petroff,
+        data,
+        attrs={
+            "load_N": args.load,
+            "radius_m": args.radius,
+            "width_m": args.width,
+            "clearance_m": args.clearance,
+            "viscosity_Pa_s": args.viscosity,
+            "temperature_C": "" if args.temperature is None else args.temperature,
+            "sigma_m": surface.sigma,
+            "asperity_friction": surface.asperity_friction,
+            "wall_time_s": time.perf_counter() - start,
+        },
+    )
     if comm.rank == 0:
         args.output.mkdir(parents=True, exist_ok=True)
         io.write_netcdf(ds, args.output / "stribeck.nc")
         io.plot_stribeck(ds, args.output / "stribeck.png")
-        summary = {"points": len(speeds), "friction_coefficient_min": float(np.nanmin(data["friction_coefficient"])),
-                   "hersey_at_min": float(hersey[np.nanargmin(data["friction_coefficient"])]),
-                   "friction_coefficient_lowest_speed": float(data["friction_coefficient"][0]),
-                   "friction_coefficient_highest_speed": float(data["friction_coefficient"][-1]),
-                   "netcdf": str(args.output / "stribeck.nc"), "png": str(args.output / "stribeck.png"),
-                   "viscosity_Pa_s": args.viscosity, "temperature_C": args.temperature}
+        summary = {
+            "points": len(speeds),
+            "friction_coefficient_min": float(np.nanmin(data["friction_coefficient"])),
+            "hersey_at_min": float(hersey[np.nanargmin(data["friction_coefficient"])]),
+            "friction_coefficient_lowest_speed": float(data["friction_coefficient"][0]),
+            "friction_coefficient_highest_speed": float(data["friction_coefficient"][-1]),
+            "netcdf": str(args.output / "stribeck.nc"),
+            "png": str(args.output / "stribeck.png"),
+            "viscosity_Pa_s": args.viscosity,
+            "temperature_C": args.temperature,
+        }
         print(json.dumps(summary) if args.json else "\n".join(f"{k:36s} {v}" for k, v in summary.items()))
     return 0

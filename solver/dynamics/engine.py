@@ -258,7 +258,10 @@ def engine_from_case(case: Case) -> EngineModel:
     """
     e, g = case.engine, case.gas
     geometry = gas_model.CylinderGeometry(
-        bore=e.bore, crank_radius=e.crank_radius, rod_length=e.rod_length, pin_offset=e.pin_offset,
+        bore=e.bore,
+        crank_radius=e.crank_radius,
+        rod_length=e.rod_length,
+        pin_offset=e.pin_offset,
         compression_ratio=g.compression_ratio,
     )
     if g.model == "trace":
@@ -268,19 +271,36 @@ def engine_from_case(case: Case) -> EngineModel:
     else:
         targets = {"peak_pressure": g.peak_pressure, "imep": g.imep} if g.model == "single-zone" else {}
         pressure = gas_model.single_zone_model(
-            geometry, polytropic_exponent=g.polytropic_exponent, intake_pressure=g.intake_pressure,
-            exhaust_pressure=g.exhaust_pressure, combustion_start=g.combustion_start,
-            combustion_duration=g.combustion_duration, wiebe_a=g.wiebe_a, wiebe_m=g.wiebe_m,
-            exhaust_opening=g.exhaust_opening, blowdown_duration=g.blowdown_duration, valve_overlap=g.valve_overlap,
+            geometry,
+            polytropic_exponent=g.polytropic_exponent,
+            intake_pressure=g.intake_pressure,
+            exhaust_pressure=g.exhaust_pressure,
+            combustion_start=g.combustion_start,
+            combustion_duration=g.combustion_duration,
+            wiebe_a=g.wiebe_a,
+            wiebe_m=g.wiebe_m,
+            exhaust_opening=g.exhaust_opening,
+            blowdown_duration=g.blowdown_duration,
+            valve_overlap=g.valve_overlap,
             **targets,
         )
     motion = load_speed_trace(e.speed_file) if e.speed_file is not None else CrankMotion(e.speed)
     return EngineModel(
-        bore=e.bore, crank_radius=e.crank_radius, rod_length=e.rod_length, pin_offset=e.pin_offset,
-        rod_cg_from_big_end=e.rod_cg_from_big_end, rod_mass=e.rod_mass, rod_inertia=e.rod_inertia,
-        piston_mass=e.piston_mass, crank_mass=e.crank_mass, crank_inertia=e.crank_inertia,
-        gravity=STANDARD_GRAVITY if e.gravity else 0.0, crankcase_pressure=g.crankcase_pressure,
-        cylinder_pressure=pressure, crank_motion=motion, name=case.name,
+        bore=e.bore,
+        crank_radius=e.crank_radius,
+        rod_length=e.rod_length,
+        pin_offset=e.pin_offset,
+        rod_cg_from_big_end=e.rod_cg_from_big_end,
+        rod_mass=e.rod_mass,
+        rod_inertia=e.rod_inertia,
+        piston_mass=e.piston_mass,
+        crank_mass=e.crank_mass,
+        crank_inertia=e.crank_inertia,
+        gravity=STANDARD_GRAVITY if e.gravity else 0.0,
+        crankcase_pressure=g.crankcase_pressure,
+        cylinder_pressure=pressure,
+        crank_motion=motion,
+        name=case.name,
     )
 
 
@@ -449,8 +469,20 @@ class EngineCycle:
 
 
 def _cycle_from_states(
-    em: EngineMechanism, angles_deg, times, q, qd, qdd, lam, *,
-    integrator, n_steps, n_force, n_jac, n_output=0, wall_time
+    em: EngineMechanism,
+    angles_deg,
+    times,
+    q,
+    qd,
+    qdd,
+    lam,
+    *,
+    integrator,
+    n_steps,
+    n_force,
+    n_jac,
+    n_output=0,
+    wall_time,
 ) -> EngineCycle:
     mech, engine = em.mechanism, em.engine
     n = len(times)
@@ -545,8 +577,17 @@ def simulate_ideal(
                 states[name].append(value)
         arrays = {name: np.array(value) for name, value in states.items()}
         return _cycle_from_states(
-            em, angles_deg, times, arrays["q"], arrays["qd"], arrays["qdd"], arrays["lam"],
-            integrator="kinematic", n_steps=len(times), n_force=len(times), n_jac=0,
+            em,
+            angles_deg,
+            times,
+            arrays["q"],
+            arrays["qd"],
+            arrays["qdd"],
+            arrays["lam"],
+            integrator="kinematic",
+            n_steps=len(times),
+            n_force=len(times),
+            n_jac=0,
             wall_time=time.perf_counter() - start,
         )
     if integrator not in ("explicit", "implicit"):
@@ -555,17 +596,39 @@ def simulate_ideal(
     omega = engine.crank_motion.speed
     if atol is None:
         length_scale = 1e-3 * rtol  # m
-        atol = np.concatenate([np.tile([length_scale, length_scale, 1e-2 * rtol], 3),
-                               np.tile([length_scale * omega, length_scale * omega, 1e-2 * rtol * omega], 3)])
+        atol = np.concatenate(
+            [
+                np.tile([length_scale, length_scale, 1e-2 * rtol], 3),
+                np.tile([length_scale * omega, length_scale * omega, 1e-2 * rtol * omega], 3),
+            ]
+        )
     gain = omega if baumgarte is None else baumgarte
     t0, q0, qd0 = em.initial_state(0.0)
     trajectory = integrate(
-        mech, q0, qd0, (t0, float(times[-1])), method=method, rtol=rtol, atol=atol, alpha=gain, beta=gain,
-        projection=projection, t_eval=times,
+        mech,
+        q0,
+        qd0,
+        (t0, float(times[-1])),
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        alpha=gain,
+        beta=gain,
+        projection=projection,
+        t_eval=times,
     )
     return _cycle_from_states(
-        em, angles_deg, trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd, trajectory.lam,
-        integrator=method, n_steps=trajectory.n_steps, n_force=trajectory.n_force_evaluations,
-        n_jac=trajectory.n_jacobian_evaluations, n_output=trajectory.n_output_evaluations,
+        em,
+        angles_deg,
+        trajectory.t,
+        trajectory.q,
+        trajectory.qd,
+        trajectory.qdd,
+        trajectory.lam,
+        integrator=method,
+        n_steps=trajectory.n_steps,
+        n_force=trajectory.n_force_evaluations,
+        n_jac=trajectory.n_jacobian_evaluations,
+        n_output=trajectory.n_output_evaluations,
         wall_time=time.perf_counter() - start,
     )

@@ -204,9 +204,16 @@ class SingleZoneModel:
             raise out_of_range("valve_overlap", f"{math.degrees(self.valve_overlap):g} deg", "[0, 180)")
         if not 0.0 <= self.blowdown_duration:
             raise out_of_range("blowdown_duration", f"{math.degrees(self.blowdown_duration):g} deg", ">= 0")
-        if not 2.0 * math.pi < self.exhaust_opening <= CYCLE - self.valve_overlap / 2 - self.blowdown_duration:
-            raise out_of_range("exhaust_opening", f"{math.degrees(self.exhaust_opening):g} deg",
-                               "(360, 720 - overlap/2 - blowdown] deg")
+        if (
+            not 2.0 * math.pi
+            < self.exhaust_opening
+            <= CYCLE - self.valve_overlap / 2 - self.blowdown_duration
+        ):
+            raise out_of_range(
+                "exhaust_opening",
+                f"{math.degrees(self.exhaust_opening):g} deg",
+                "(360, 720 - overlap/2 - blowdown] deg",
+            )
         if not self.combustion_start + self.combustion_duration < self.exhaust_opening:
             raise out_of_range(
                 "combustion_start + combustion_duration",
@@ -271,8 +278,9 @@ class SingleZoneModel:
 
     def _closed_derivative(self, theta) -> np.ndarray:
         n, V = self.polytropic_exponent, self.geometry.volume(theta)
-        return (n - 1.0) * self.heat_release * self._heat_integrand(theta) / V**n - n * self._closed(theta) * (
-            self.geometry.volume_derivative(theta) / V)
+        return (n - 1.0) * self.heat_release * self._heat_integrand(theta) / V**n - n * self._closed(
+            theta
+        ) * (self.geometry.volume_derivative(theta) / V)
 
     def _overlap_phase(self, theta: np.ndarray) -> np.ndarray:
         """v of the valve overlap (module docstring), in [0, 1] inside it (theta in [0, 4 pi))."""
@@ -320,11 +328,15 @@ class SingleZoneModel:
             inside = (theta >= evo) & (theta < evo + blowdown)
             t = theta[inside]
             u = (t - evo) / blowdown
-            dp[inside] = (self._closed_derivative(t) * (1.0 - _smoothstep(u))
-                          - (self._closed(t) - p_ex) * _smoothstep_slope(u) / blowdown)
+            dp[inside] = (
+                self._closed_derivative(t) * (1.0 - _smoothstep(u))
+                - (self._closed(t) - p_ex) * _smoothstep_slope(u) / blowdown
+            )
         if half > 0:
             inside = (theta < half) | (theta >= CYCLE - half)
-            dp[inside] = (p_in - p_ex) * _smoothstep_slope(self._overlap_phase(theta[inside])) / self.valve_overlap
+            dp[inside] = (
+                (p_in - p_ex) * _smoothstep_slope(self._overlap_phase(theta[inside])) / self.valve_overlap
+            )
         return np.float64(dp[0]) if scalar else dp
 
     def work(self) -> float:
@@ -337,11 +349,19 @@ class SingleZoneModel:
         v_ivc, v_evo = V(math.pi), V(evo)
         c0 = self.intake_pressure * v_ivc**n
         closed = c0 * (v_evo ** (1.0 - n) - v_ivc ** (1.0 - n)) / (1.0 - n)
-        gas_exchange = (self.intake_pressure * (v_ivc - V(half)) + self.exhaust_pressure * (V(CYCLE - half)
-                                                                                          - V(evo + blowdown)))
+        gas_exchange = self.intake_pressure * (v_ivc - V(half)) + self.exhaust_pressure * (
+            V(CYCLE - half) - V(evo + blowdown)
+        )
         p_in, p_ex = self.intake_pressure, self.exhaust_pressure
-        pieces = _integral_p_dV(self.geometry, lambda t: p_ex * _smoothstep((t - evo) / blowdown)
-                                + c0 / V(t) ** n * (1.0 - _smoothstep((t - evo) / blowdown)), evo, evo + blowdown)
+        pieces = _integral_p_dV(
+            self.geometry,
+            lambda t: (
+                p_ex * _smoothstep((t - evo) / blowdown)
+                + c0 / V(t) ** n * (1.0 - _smoothstep((t - evo) / blowdown))
+            ),
+            evo,
+            evo + blowdown,
+        )
         overlap = lambda t: p_ex + (p_in - p_ex) * _smoothstep((t - CYCLE + half) / self.valve_overlap)  # noqa: E731
         pieces += _integral_p_dV(self.geometry, overlap, CYCLE - half, CYCLE + half)
         return float(closed + gas_exchange + pieces)
@@ -350,8 +370,14 @@ class SingleZoneModel:
         n, V = self.polytropic_exponent, self.geometry.volume
         evo, blowdown = self.exhaust_opening, self.blowdown_duration
         closed = 1.0 - self._heat_integral_end * V(evo) ** (1.0 - n)
-        blow = _integral_p_dV(self.geometry, lambda t: (n - 1.0) * self._heat_integral_end / V(t) ** n
-                              * (1.0 - _smoothstep((t - evo) / blowdown)), evo, evo + blowdown)
+        blow = _integral_p_dV(
+            self.geometry,
+            lambda t: (
+                (n - 1.0) * self._heat_integral_end / V(t) ** n * (1.0 - _smoothstep((t - evo) / blowdown))
+            ),
+            evo,
+            evo + blowdown,
+        )
         return float(closed + blow)
 
     def imep(self) -> float:
@@ -365,7 +391,9 @@ class SingleZoneModel:
         k = int(np.argmax(values))
         low, high = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
         best = minimize_scalar(
-            lambda theta: -float(self.pressure(theta)), bounds=(low, high), method="bounded",
+            lambda theta: -float(self.pressure(theta)),
+            bounds=(low, high),
+            method="bounded",
             options={"xatol": 1e-10},
         )
         if -best.fun >= values[k]:
@@ -384,7 +412,9 @@ def _smoothstep_slope(u):
     return 30.0 * u**2 * (1.0 - u) ** 2
 
 
-def _integral_p_dV(geometry: CylinderGeometry, pressure, start: float, end: float, panels: int = 400) -> float:
+def _integral_p_dV(
+    geometry: CylinderGeometry, pressure, start: float, end: float, panels: int = 400
+) -> float:
     """integral of p dV = p dV/dtheta dtheta over [start, end] (6-point Gauss-Legendre on equal panels;
     the integrands are smooth there: ~1e-14 relative)."""
     if not end > start:
@@ -429,7 +459,8 @@ def single_zone_model(
     motored_peak = motored.peak()[0]
     if not peak_pressure > motored_peak:
         raise out_of_range(
-            "gas.peak_pressure_bar", f"{peak_pressure / BAR:g}",
+            "gas.peak_pressure_bar",
+            f"{peak_pressure / BAR:g}",
             f"> the motored peak {motored_peak / BAR:.4g}",
         )
 

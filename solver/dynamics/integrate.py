@@ -93,7 +93,9 @@ class Trajectory:
     n_rejected: int = 0  # rejected step attempts (error test or Newton failure; ESDIRK32)
     next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
     jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian (pass it on)
-    interpolant: object | None = None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
+    interpolant: object | None = (
+        None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
+    )
     #: ESDIRK32 with ``stage_values``: the sum over the accepted steps of ``h sum_j b_j v_j``, the
     #: method's own quadrature of the values v at the stages (e.g. powers: the work done over t_span)
     stage_integral: np.ndarray | None = None
@@ -272,14 +274,22 @@ class ESDIRK32:
             [0.0, 0.0, 0.0, 0.0],
             [GAMMA, GAMMA, 0.0, 0.0],
             [2746238789719.0 / 10658868560708.0, -640167445237.0 / 6845629431997.0, GAMMA, 0.0],
-            [1471266399579.0 / 7840856788654.0, -4482444167858.0 / 7529755066697.0,
-             11266239266428.0 / 11593286722821.0, GAMMA],
+            [
+                1471266399579.0 / 7840856788654.0,
+                -4482444167858.0 / 7529755066697.0,
+                11266239266428.0 / 11593286722821.0,
+                GAMMA,
+            ],
         ]
     )
     B = A[3].copy()
     B_EMBEDDED = np.array(
-        [2756255671327.0 / 12835298489170.0, -10771552573575.0 / 22201958757719.0,
-         9247589265047.0 / 10645013368117.0, 2193209047091.0 / 5459859503100.0]
+        [
+            2756255671327.0 / 12835298489170.0,
+            -10771552573575.0 / 22201958757719.0,
+            9247589265047.0 / 10645013368117.0,
+            2193209047091.0 / 5459859503100.0,
+        ]
     )
     C = A.sum(axis=1)
     MAX_NEWTON_ITERATIONS = 12
@@ -291,11 +301,22 @@ class ESDIRK32:
     REFRESH_RATE = 0.25
     REUSE_TOLERANCE_FACTOR = 0.1
 
-    def __init__(self, system: _System, t0: float, y0: np.ndarray, t_bound: float, *, rtol: float,
-                 atol, max_step: float = np.inf, first_step: float | None = None,
-                 jacobian_reuse: bool = False, jacobian: np.ndarray | None = None,
-                 interpolant: _HermiteOutput | None = None,
-                 stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None):
+    def __init__(
+        self,
+        system: _System,
+        t0: float,
+        y0: np.ndarray,
+        t_bound: float,
+        *,
+        rtol: float,
+        atol,
+        max_step: float = np.inf,
+        first_step: float | None = None,
+        jacobian_reuse: bool = False,
+        jacobian: np.ndarray | None = None,
+        interpolant: _HermiteOutput | None = None,
+        stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+    ):
         self.system = system
         #: values at a force evaluation (t, y, qdd, lambda), integrated by the stage quadrature
         self.stage_values = stage_values
@@ -327,7 +348,9 @@ class ESDIRK32:
 
     def _values(self) -> np.ndarray | None:
         """``stage_values`` at the latest force evaluation (None without them)."""
-        return None if self.stage_values is None else np.asarray(self.stage_values(*self.system.last_evaluation))
+        return (
+            None if self.stage_values is None else np.asarray(self.stage_values(*self.system.last_evaluation))
+        )
 
     def _norm(self, x: np.ndarray, reference: np.ndarray) -> float:
         return float(np.sqrt(np.mean((x / (self.atol + self.rtol * np.abs(reference))) ** 2)))
@@ -437,7 +460,9 @@ class ESDIRK32:
                     # interpolate (stage 2, c = 0.6) or barely extrapolate (stage 3, c = 1) between the
                     # step start and the converged first stage (c = 0.87): closer than the last step's
                     # interpolant, extrapolated a whole step, which can even leave the clearance
-                    guess = _HermiteOutput(t, y, f0, t + self.C[1] * h, first_stage, stages[1])(t + self.C[i] * h)
+                    guess = _HermiteOutput(t, y, f0, t + self.C[1] * h, first_stage, stages[1])(
+                        t + self.C[i] * h
+                    )
                 elif self._dense is not None:  # extrapolate the last step's interpolant: Newton starts close
                     guess = self._dense(t + self.C[i] * h)
                 else:
@@ -476,7 +501,9 @@ class ESDIRK32:
         self._anchor = self.system.last_evaluation
         if self.stage_values is not None:
             quadrature = h * sum(self.B[j] * values[j] for j in range(4))
-            self.stage_integral = quadrature if self.stage_integral is None else self.stage_integral + quadrature
+            self.stage_integral = (
+                quadrature if self.stage_integral is None else self.stage_integral + quadrature
+            )
         self._anchor_value = values[3]
         if self.t >= self.t_bound:
             self.status = "finished"
@@ -593,8 +620,17 @@ def integrate(
     y0 = np.concatenate([q0, qd0])
     if method == "ESDIRK32":
         solver = ESDIRK32(
-            system, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
-            jacobian_reuse=jacobian_reuse, jacobian=jacobian, interpolant=interpolant,
+            system,
+            t0,
+            y0,
+            t_end,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            first_step=first_step,
+            jacobian_reuse=jacobian_reuse,
+            jacobian=jacobian,
+            interpolant=interpolant,
             stage_values=stage_values,
         )
     else:

@@ -84,11 +84,11 @@ class FilmJoint(ClearanceJoint):
 
     def commit(self, t: float) -> np.ndarray | None:
         """Elastic bushing: the deformation of the last evaluated state, at time t, starts the next rate;
-        returns that state's unknowns (solver.film.bearing.FilmModel.deformation_state), or None."""
+        returns that state's unknowns (solver.film.bearing.FilmModel.history_state), or None."""
         if not self._elastic or self._last_key not in self._cache:
             return None
         state = self._cache[self._last_key][1]
-        self.model.commit_deformation(state, t)
+        self.model.commit_history(state, t)
         self._commits += 1
         return state
 
@@ -104,7 +104,9 @@ class FilmJoint(ClearanceJoint):
         self._last_key = key
         if not all(math.isfinite(v) for v in key):
             return _NAN_FORCES
-        if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * self.model.max_eccentricity_ratio * (1 - 1e-9):
+        if math.hypot(key[0], key[1]) >= self.model.bearing.clearance * self.model.max_eccentricity_ratio * (
+            1 - 1e-9
+        ):
             return _NAN_FORCES
         if not jacobian and key != self._key and key in self._cache:
             # a state solved before (e.g. an output state evaluated again at the start of the next
@@ -114,11 +116,12 @@ class FilmJoint(ClearanceJoint):
             return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, None)
         try:
             if key != self._key:
-                self._result = self.model.solve(self._kinematics(key[:2], key[2:4], key[4], 0.0),
-                                                float(t) if self._elastic else None)
+                self._result = self.model.solve(
+                    self._kinematics(key[:2], key[2:4], key[4], 0.0), float(t) if self._elastic else None
+                )
                 self._key = key
                 self.n_solves += 1
-                self._cache[key] = (self._result, self.model.deformation_state())
+                self._cache[key] = (self._result, self.model.history_state())
                 if len(self._cache) > self.CACHE_SIZE:
                     del self._cache[next(iter(self._cache))]
             jac = None
@@ -201,8 +204,9 @@ class ShortBearingJoint(ClearanceJoint):
         return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
 
 
-def hertz_line_stiffness(radius: float, clearance: float, E_journal: float, nu_journal: float, E_bushing: float,
-                         nu_bushing: float) -> float:
+def hertz_line_stiffness(
+    radius: float, clearance: float, E_journal: float, nu_journal: float, E_bushing: float, nu_bushing: float
+) -> float:
     """Lankarani-Nikravesh stiffness K = (4/3) E* sqrt(R*) of the pin in its bore [N/m^1.5].
 
     R* = R_j R_b / (R_b - R_j) for the conformal internal contact (R_b = R_j + c), and
@@ -255,7 +259,11 @@ class DryContactJoint(ClearanceJoint):
         nx, ny = ex / e, ey / e
         delta = e - self.clearance
         delta_rate = rx * nx + ry * ny
-        Fn = self.stiffness * delta**1.5 * (1 + 0.75 * (1 - self.restitution**2) * delta_rate / self.impact_speed)
+        Fn = (
+            self.stiffness
+            * delta**1.5
+            * (1 + 0.75 * (1 - self.restitution**2) * delta_rate / self.impact_speed)
+        )
         # slip of the journal surface at the contact point over the bushing (along t = S n):
         v_t = self.radius * w + (-rx * ny + ry * nx)
         Ft = -self.friction * Fn * v_t / np.sqrt(v_t * v_t + self.slip_regularisation**2)
@@ -273,23 +281,44 @@ class DryContactJoint(ClearanceJoint):
 
 def surface_from_case(surf) -> Surface:
     """The film's Surface (roughness and contact models) of a case's ``surface`` section (the pin is the journal)."""
-    return Surface(sigma_journal=surf.sigma_pin, sigma_bushing=surf.sigma_bushing, peklenik_gamma=surf.peklenik_gamma,
-                   eta_beta_sigma=surf.eta_beta_sigma, sigma_over_beta=surf.sigma_over_beta, E_journal=surf.E_pin,
-                   nu_journal=surf.nu_pin, E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing,
-                   E_composite=surf.composite_modulus, asperity_friction=surf.asperity_friction)
+    return Surface(
+        sigma_journal=surf.sigma_pin,
+        sigma_bushing=surf.sigma_bushing,
+        peklenik_gamma=surf.peklenik_gamma,
+        eta_beta_sigma=surf.eta_beta_sigma,
+        sigma_over_beta=surf.sigma_over_beta,
+        E_journal=surf.E_pin,
+        nu_journal=surf.nu_pin,
+        E_bushing=surf.E_bushing,
+        nu_bushing=surf.nu_bushing,
+        E_composite=surf.composite_modulus,
+        asperity_friction=surf.asperity_friction,
+    )
 
 
 def bearing_supply(oil) -> dict[str, object]:
     """The oil supply of a case's ``oil`` section (already checked to fit the small end, solver.case) as
     keyword arguments of solver.film.bearing.Bearing (SI; the rod frame is the bushing frame)."""
     if oil.inlet == "hole":
-        return {"supply_pressure": oil.supply_pressure, "supply_hole_angle": oil.supply_hole_angle,
-                "supply_hole_diameter": oil.supply_hole_diameter}
+        return {
+            "supply_pressure": oil.supply_pressure,
+            "supply_hole_angle": oil.supply_hole_angle,
+            "supply_hole_diameter": oil.supply_hole_diameter,
+        }
     if oil.inlet == "axial-groove":
-        return {"supply_pressure": oil.supply_pressure, "groove": "axial", "groove_angle": oil.groove_angle,
-                "groove_arc": oil.groove_arc, "groove_length": oil.groove_length}
+        return {
+            "supply_pressure": oil.supply_pressure,
+            "groove": "axial",
+            "groove_angle": oil.groove_angle,
+            "groove_arc": oil.groove_arc,
+            "groove_length": oil.groove_length,
+        }
     if oil.inlet == "circumferential-groove":
-        return {"supply_pressure": oil.supply_pressure, "groove": "circumferential", "groove_width": oil.groove_width}
+        return {
+            "supply_pressure": oil.supply_pressure,
+            "groove": "circumferential",
+            "groove_width": oil.groove_width,
+        }
     return {}
 
 
@@ -299,14 +328,22 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     if joint == "ideal":
         return None, None
     if joint == "short-bearing":
-        return ShortBearingJoint(radius=se.pin_radius, width=se.width, clearance=se.clearance,
-                                 viscosity=oil.viscosity), None
+        return ShortBearingJoint(
+            radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity
+        ), None
     if joint == "dry":
-        stiffness = hertz_line_stiffness(se.pin_radius, se.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing,
-                                         surf.nu_bushing)
-        return DryContactJoint(radius=se.pin_radius, clearance=se.clearance, stiffness=stiffness,
-                               restitution=surf.restitution, friction=surf.asperity_friction,
-                               impact_speed=surf.impact_speed, slip_regularisation=solver.slip_regularisation), None
+        stiffness = hertz_line_stiffness(
+            se.pin_radius, se.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing, surf.nu_bushing
+        )
+        return DryContactJoint(
+            radius=se.pin_radius,
+            clearance=se.clearance,
+            stiffness=stiffness,
+            restitution=surf.restitution,
+            friction=surf.asperity_friction,
+            impact_speed=surf.impact_speed,
+            slip_regularisation=solver.slip_regularisation,
+        ), None
     if joint != "mixed-fem":
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # dolfinx, PETSc and gmsh come with the film model: imported only when a finite-element joint is built
@@ -315,20 +352,45 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     from solver.film.viscosity import viscosity_law
 
     if se.elastic != "none" and oil.inlet == "max-gap":
-        raise InputError("small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
-                         "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')")
-    bearing = Bearing(radius=se.pin_radius, width=se.width, clearance=se.clearance, viscosity=oil.viscosity,
-                      cavitation_pressure=oil.cavitation_pressure, inlet="max-gap" if oil.inlet == "max-gap" else "none",
-                      **bearing_supply(oil))
+        raise InputError(
+            "small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
+            "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')"
+        )
+    bearing = Bearing(
+        radius=se.pin_radius,
+        width=se.width,
+        clearance=se.clearance,
+        viscosity=oil.viscosity,
+        cavitation_pressure=oil.cavitation_pressure,
+        inlet="max-gap" if oil.inlet == "max-gap" else "none",
+        **bearing_supply(oil),
+    )
     surface = surface_from_case(surf)
-    elastic = bushing_model(se.elastic, radius=se.pin_radius, width=se.width, bushing_thickness=se.bushing_thickness,
-                            eye_outer_radius=se.eye_outer_radius, E_eye=se.E_eye, nu_eye=se.nu_eye,
-                            E_bushing=surf.E_bushing, nu_bushing=surf.nu_bushing,
-                            shank_half_angle_deg=math.degrees(se.shank_half_angle), modes=se.compliance_modes,
-                            comm=comm)
-    model = FilmModel(bearing, comm, omega_ref=engine.crank_motion.speed, mesh_size=solver.mesh_size,
-                      roughness=surface.roughness(), contact=surface.contact(),
-                      slip_regularisation=solver.slip_regularisation, elastic=elastic,
-                      piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
-                      cavitation=oil.cavitation, transport=solver.film_fraction_transport)
+    elastic = bushing_model(
+        se.elastic,
+        radius=se.pin_radius,
+        width=se.width,
+        bushing_thickness=se.bushing_thickness,
+        eye_outer_radius=se.eye_outer_radius,
+        E_eye=se.E_eye,
+        nu_eye=se.nu_eye,
+        E_bushing=surf.E_bushing,
+        nu_bushing=surf.nu_bushing,
+        shank_half_angle_deg=math.degrees(se.shank_half_angle),
+        modes=se.compliance_modes,
+        comm=comm,
+    )
+    model = FilmModel(
+        bearing,
+        comm,
+        omega_ref=engine.crank_motion.speed,
+        mesh_size=solver.mesh_size,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+        slip_regularisation=solver.slip_regularisation,
+        elastic=elastic,
+        piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
+        cavitation=oil.cavitation,
+        transport=solver.film_fraction_transport,
+    )
     return FilmJoint(model), model

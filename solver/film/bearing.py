@@ -41,7 +41,7 @@ supply flow the side flow.
 Cavitation (``cavitation``): ``"reynolds"``, the SNES VI P >= P_cav above; ``"jfo"``, the
 mass-conserving film of solver.film.jfo (and solver.film.ehd_jfo with an elastic bushing) with the same
 flow factors, whose film fraction is film state: committed after every accepted integrator step
-(``commit_deformation``, as the elastic bushing's deformation), its rate by BDF2 through the committed
+(``commit_history``, as the elastic bushing's deformation), its rate by BDF2 through the committed
 states. Its flows are the consistent fluxes of the JFO residual, so a steady film's supply equals its
 side flow; the cavitated area and the oil held in the film are in FilmResult.
 
@@ -75,6 +75,7 @@ from solver.film import reynolds as film
 from solver.film.cavitation import CavitatingSolver
 from solver.film.ehd import ElasticFilm, ModalCompliance, WinklerLayer, deformation_peak
 from solver.film.ehd_jfo import ElasticJFOFilm, MidpointJFO
+from solver.film.jfo import JFOSolver, TransportLimiter
 from solver.film.mesh import (
     TAGS,
     AxialGroove,
@@ -84,7 +85,6 @@ from solver.film.mesh import (
     SupplyHole,
     film_mesh,
 )
-from solver.film.jfo import JFOSolver, TransportLimiter
 from solver.film.scaling import FilmScales
 from solver.film.tensors import MidpointOperator, PressureTorque, RigidMidpointCoefficients
 
@@ -99,7 +99,11 @@ class _QuietJit(logging.Filter):
     announced = False
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if record.name == "ffcx" and "Calling JIT C compiler" in record.getMessage() and not _QuietJit.announced:
+        if (
+            record.name == "ffcx"
+            and "Calling JIT C compiler" in record.getMessage()
+            and not _QuietJit.announced
+        ):
             _QuietJit.announced = True
             log.info("compiling the film's forms for this machine: once, 5-20 s; cached in ~/.cache/fenics")
         return record.levelno >= logging.WARNING
@@ -179,33 +183,46 @@ class Bearing:
             if not getattr(self, name) > 0:
                 raise out_of_range(name, getattr(self, name), "> 0")
         if not self.clearance < 0.1 * self.radius:
-            raise out_of_range("clearance", self.clearance, f"< 0.1 radius = {0.1 * self.radius:g} m (thin film)")
+            raise out_of_range(
+                "clearance", self.clearance, f"< 0.1 radius = {0.1 * self.radius:g} m (thin film)"
+            )
         if not self.cavitation_pressure <= 0:
             raise out_of_range("cavitation_pressure", self.cavitation_pressure, "<= 0 Pa gauge")
-        if self.supply_hole_angle is not None and not 0 < self.supply_hole_diameter < min(self.width, self.radius):
+        if self.supply_hole_angle is not None and not 0 < self.supply_hole_diameter < min(
+            self.width, self.radius
+        ):
             raise out_of_range("supply_hole_diameter", self.supply_hole_diameter, "(0, min(width, radius))")
         if self.inlet not in INLETS:
             raise out_of_range("inlet", repr(self.inlet), " or ".join(map(repr, INLETS)))
         if self.groove not in GROOVES:
             raise out_of_range("groove", repr(self.groove), ", ".join(map(repr, GROOVES)))
         if self.groove != "none" and self.supply_hole_angle is not None:
-            raise InputError(f"groove = {self.groove!r} with a supply hole (allowed: one oil supply, a hole or a groove)")
+            raise InputError(
+                f"groove = {self.groove!r} with a supply hole (allowed: one oil supply, a hole or a groove)"
+            )
         if self.groove == "axial":
             if not math.isfinite(self.groove_angle):
                 raise out_of_range("groove_angle", self.groove_angle, "a finite number of rad")
             if not 0 < self.groove_arc < 2 * math.pi:
                 raise out_of_range("groove_arc", f"{self.groove_arc:g}", "(0, 2 pi) rad")
             if not 0 < self.groove_length < self.width:
-                raise out_of_range("groove_length", f"{self.groove_length:g}", f"(0, width = {self.width:g}) m")
+                raise out_of_range(
+                    "groove_length", f"{self.groove_length:g}", f"(0, width = {self.width:g}) m"
+                )
         if self.groove == "circumferential" and not 0 < self.groove_width < self.width:
             raise out_of_range("groove_width", f"{self.groove_width:g}", f"(0, width = {self.width:g}) m")
         if self.supply is not None:
             if not self.supply_pressure >= self.cavitation_pressure:  # (also NaN)
-                raise out_of_range("supply_pressure", f"{self.supply_pressure:g}",
-                                   f">= cavitation_pressure = {self.cavitation_pressure:g} Pa gauge")
+                raise out_of_range(
+                    "supply_pressure",
+                    f"{self.supply_pressure:g}",
+                    f">= cavitation_pressure = {self.cavitation_pressure:g} Pa gauge",
+                )
             if self.inlet == "max-gap":
-                raise InputError("inlet = 'max-gap' cannot be combined with a supply hole or groove (allowed with a "
-                                 "supply: 'none')")
+                raise InputError(
+                    "inlet = 'max-gap' cannot be combined with a supply hole or groove (allowed with a "
+                    "supply: 'none')"
+                )
 
     @property
     def supply(self) -> Supply | None:
@@ -230,14 +247,25 @@ class Kinematics:
     omega_bushing: float = 0.0  # rad/s, absolute angular speed of the bushing
 
     @staticmethod
-    def from_global(r_journal, v_journal, r_bushing, v_bushing, phi_bushing: float,
-                    omega_journal: float, omega_bushing: float) -> Kinematics:
+    def from_global(
+        r_journal,
+        v_journal,
+        r_bushing,
+        v_bushing,
+        phi_bushing: float,
+        omega_journal: float,
+        omega_bushing: float,
+    ) -> Kinematics:
         """From global centre positions/velocities: ``e' = A^T e`` and ``de'/dt = A^T de/dt - omega_b S e'``."""
         c, s = math.cos(phi_bushing), math.sin(phi_bushing)
         A_T = np.array([[c, s], [-s, c]])
         e_b = A_T @ (np.asarray(r_journal, float) - np.asarray(r_bushing, float))
-        rate = A_T @ (np.asarray(v_journal, float) - np.asarray(v_bushing, float)) - omega_bushing * np.array([-e_b[1], e_b[0]])
-        return Kinematics((float(e_b[0]), float(e_b[1])), (float(rate[0]), float(rate[1])), omega_journal, omega_bushing)
+        rate = A_T @ (np.asarray(v_journal, float) - np.asarray(v_bushing, float)) - omega_bushing * np.array(
+            [-e_b[1], e_b[0]]
+        )
+        return Kinematics(
+            (float(e_b[0]), float(e_b[1])), (float(rate[0]), float(rate[1])), omega_journal, omega_bushing
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -258,7 +286,9 @@ class FilmResult:
     h_min: float  # m, minimum film thickness
     torque_journal: float  # N m, friction torque on the journal (viscous + asperity)
     torque_bushing: float  # N m, friction torque on the bushing (viscous + asperity)
-    asperity_torque_journal: float  # N m, asperity part of torque_journal (friction + moment of the normal forces)
+    asperity_torque_journal: (
+        float  # N m, asperity part of torque_journal (friction + moment of the normal forces)
+    )
     asperity_normal_force: float  # N, integral of p_c over the surface (what asperity friction acts on)
     contact_area_ratio: float  # real contact area / nominal bearing area
     asperity_p_max: float  # Pa, peak asperity contact pressure (at h_min)
@@ -267,9 +297,13 @@ class FilmResult:
     solve_time: float  # s, wall time of the solve (assembly + VI)
     sigma: float = 0.0  # m, composite roughness (0: smooth)
     supply_flow: float = 0.0  # m^3/s, flow from the supply hole or groove into the film (0: no supply)
-    max_deformation: float = 0.0  # m, the bushing's largest radial deformation (signed, + opens the gap; 0: rigid)
+    max_deformation: float = (
+        0.0  # m, the bushing's largest radial deformation (signed, + opens the gap; 0: rigid)
+    )
     max_deformation_theta: float = 0.0  # rad, its bushing angle
-    cavitated_area_ratio: float = 0.0  # ruptured film area / bearing area (theta < 1, or p at p_cav: Reynolds)
+    cavitated_area_ratio: float = (
+        0.0  # ruptured film area / bearing area (theta < 1, or p at p_cav: Reynolds)
+    )
     oil_volume: float = math.nan  # m^3, oil held in the film, integral of theta h_T (JFO; NaN: Reynolds)
 
     @property
@@ -336,7 +370,9 @@ class FrameTurn:
         self.theta = np.arctan2(x[:, 1], x[:, 0]) % (2 * math.pi)
         self.z = x[:, 2]
         two_pi = 2 * math.pi
-        points = np.concatenate([np.column_stack([self.theta + shift, self.z]) for shift in (0.0, two_pi, -two_pi)])
+        points = np.concatenate(
+            [np.column_stack([self.theta + shift, self.z]) for shift in (0.0, two_pi, -two_pi)]
+        )
         self.node = np.tile(np.arange(self.size), 3)
         self.triangulation = Delaunay(points)
 
@@ -384,18 +420,63 @@ class FilmModel:
     # cost 13 % more VI iterations on a crossing and 6 x more under a load turning 0.3 rad per solve)
     TURN_THRESHOLD = 0.5
 
-    def __init__(self, bearing: Bearing, comm: MPI.Comm, *, omega_ref: float, mesh_size: float | None = None,
-                 degree: int = 1, roughness=None, contact=None, slip_regularisation: float = 1e-3,
-                 options: dict | None = None, half: bool = True, elastic=None, piezoviscosity=None,
-                 cavitation: str = "reynolds", transport: str = "limited"):
+    def __init__(
+        self,
+        bearing: Bearing,
+        comm: MPI.Comm,
+        *,
+        omega_ref: float,
+        mesh_size: float | None = None,
+        degree: int = 1,
+        roughness=None,
+        contact=None,
+        slip_regularisation: float = 1e-3,
+        options: dict | None = None,
+        half: bool = True,
+        elastic=None,
+        piezoviscosity=None,
+        cavitation: str = "reynolds",
+        transport: str = "limited",
+    ):
         with _quiet_jit():
-            self._setup(bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-                        half, elastic, piezoviscosity, cavitation, transport)
+            self._setup(
+                bearing,
+                comm,
+                omega_ref,
+                mesh_size,
+                degree,
+                roughness,
+                contact,
+                slip_regularisation,
+                options,
+                half,
+                elastic,
+                piezoviscosity,
+                cavitation,
+                transport,
+            )
 
-    def _setup(self, bearing, comm, omega_ref, mesh_size, degree, roughness, contact, slip_regularisation, options,
-               half, elastic, piezoviscosity, cavitation, transport) -> None:
+    def _setup(
+        self,
+        bearing,
+        comm,
+        omega_ref,
+        mesh_size,
+        degree,
+        roughness,
+        contact,
+        slip_regularisation,
+        options,
+        half,
+        elastic,
+        piezoviscosity,
+        cavitation,
+        transport,
+    ) -> None:
         if transport not in TRANSPORT_SCHEMES:
-            raise out_of_range("film-fraction transport", repr(transport), " or ".join(map(repr, TRANSPORT_SCHEMES)))
+            raise out_of_range(
+                "film-fraction transport", repr(transport), " or ".join(map(repr, TRANSPORT_SCHEMES))
+            )
         self.transport = transport
         self.bearing = bearing
         self.elastic = elastic
@@ -405,25 +486,41 @@ class FilmModel:
         self.cavitation = cavitation
         if cavitation == "jfo" and (comm.size != 1 or degree != 1):
             raise InputError("cavitation = 'jfo' needs the serial P1 film (allowed: one rank, degree 1)")
-        if cavitation == "jfo" and bearing.inlet == "none" and bearing.supply is None and bearing.cavitation_pressure >= 0:
+        if (
+            cavitation == "jfo"
+            and bearing.inlet == "none"
+            and bearing.supply is None
+            and bearing.cavitation_pressure >= 0
+        ):
             # edges at the cavitation pressure, no supply: no oil can enter the film but along its edges'
             # first element row, so the oil it holds depends on the mesh (load -16 % from 0.1 to 0.025 R)
-            raise out_of_range("cavitation_pressure", f"{bearing.cavitation_pressure:g}",
-                               "< 0 Pa gauge with cavitation 'jfo', inlet 'none' and no supply (flooded edges), "
-                               "or give a supply hole or groove")
+            raise out_of_range(
+                "cavitation_pressure",
+                f"{bearing.cavitation_pressure:g}",
+                "< 0 Pa gauge with cavitation 'jfo', inlet 'none' and no supply (flooded edges), "
+                "or give a supply hole or groove",
+            )
         if elastic is not None:
             if comm.size != 1 or degree != 1:
                 raise InputError("an elastic bushing needs the serial P1 film (allowed: one rank, degree 1)")
             if isinstance(elastic, ModalCompliance) and bearing.inlet == "max-gap":
-                raise InputError("elastic = 'fe' cannot be combined with inlet = 'max-gap' (it turns the film "
-                                 "against the eye; allowed: 'none', with or without a supply)")
-        self.scales = FilmScales(radius=bearing.radius, clearance=bearing.clearance, viscosity=bearing.viscosity,
-                                 omega_ref=omega_ref)
+                raise InputError(
+                    "elastic = 'fe' cannot be combined with inlet = 'max-gap' (it turns the film "
+                    "against the eye; allowed: 'none', with or without a supply)"
+                )
+        self.scales = FilmScales(
+            radius=bearing.radius,
+            clearance=bearing.clearance,
+            viscosity=bearing.viscosity,
+            omega_ref=omega_ref,
+        )
         if degree not in (1, 2):
             raise out_of_range("degree", degree, "1 or 2")
         sigmas = [x.sigma for x in (roughness, contact) if x is not None]
         if sigmas and not math.isclose(min(sigmas), max(sigmas), rel_tol=1e-12):
-            raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
+            raise InputError(
+                "roughness.sigma and contact.sigma differ (allowed: the same composite roughness)"
+            )
         self.sigma = sigmas[0] if sigmas else 0.0
         R = bearing.radius
         # aligned surfaces, edges at the same pressure, a supply on the mid-plane: the film is
@@ -431,7 +528,9 @@ class FilmModel:
         # every integral over the film is doubled (solver.film.mesh)
         if mesh_size is None:
             mesh_size = default_mesh_size(bearing.width, R)
-        self.mesh_spec = FilmMeshSpec(width=bearing.width / R, element_size=mesh_size, supply=bearing.supply, half=half)
+        self.mesh_spec = FilmMeshSpec(
+            width=bearing.width / R, element_size=mesh_size, supply=bearing.supply, half=half
+        )
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", degree))
@@ -439,7 +538,7 @@ class FilmModel:
         # the true pressure / p_ref: the reduced pressure mapped node by node (solver.film.viscosity)
         self.pressure = fem.Function(self.V, name="true_pressure") if piezoviscosity is not None else self.P
         self.W = fem.Function(self.V, name="deformation") if elastic is not None else None  # w / c
-        # the deformation's rate by implicit Euler from the last committed state (commit_deformation)
+        # the deformation's rate by implicit Euler from the last committed state (commit_history)
         self._W_previous = fem.Function(self.V) if elastic is not None else None
         self._inverse_step = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
         # the last committed states, oldest first: (t_n [s], coupled unknowns x_n)
@@ -453,9 +552,14 @@ class FilmModel:
         # the flow floor of the elastic film: a quarter of the roughness (h/sigma < 0.25 is asperity
         # contact; the flow factors are held below 0.5), or 1e-3 c on smooth surfaces
         floor = 0.25 * self.sigma / bearing.clearance if self.sigma > 0 else 1e-3
-        self.geometry = film.FilmGeometry(self.mesh, self.params, deformation=self.W,
-                                          previous_deformation=self._W_previous, inverse_step=self._inverse_step,
-                                          flow_floor=floor)
+        self.geometry = film.FilmGeometry(
+            self.mesh,
+            self.params,
+            deformation=self.W,
+            previous_deformation=self._W_previous,
+            inverse_step=self._inverse_step,
+            flow_floor=floor,
+        )
         self.roughness, self.contact = roughness, contact
         self.slip_regularisation = slip_regularisation
         self._build_forms()
@@ -471,27 +575,45 @@ class FilmModel:
         spread = np.ptp(np.unwrap(angle, axis=1), axis=1)
         self._cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
         self.bcs = self._boundary_conditions()
-        self.solver = CavitatingSolver(self._a, self._l, self.P, self.bcs,
-                                       lower=self._reduced(bearing.cavitation_pressure) / self.scales.pressure,
-                                       options=options)
+        self.solver = CavitatingSolver(
+            self._a,
+            self._l,
+            self.P,
+            self.bcs,
+            lower=self._reduced(bearing.cavitation_pressure) / self.scales.pressure,
+            options=options,
+        )
         self._operator = None
         self._pressure_torque = None  # PressureTorque: serial, P1
         if self.comm.size == 1 and degree == 1:  # operator and source from precomputed tensors (film.tensors)
             coefficients = film.reynolds_coefficients(self.geometry, self.roughness)
             names = list(self._midpoint_integrands)
-            self._operator = MidpointOperator(self.V, self.solver.A, coefficients, self.bcs,
-                                              integrals=[self._midpoint_integrands[n] for n in names])
+            self._operator = MidpointOperator(
+                self.V,
+                self.solver.A,
+                coefficients,
+                self.bcs,
+                integrals=[self._midpoint_integrands[n] for n in names],
+            )
             self._operator_integral_names = names
             self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(names)]
             if elastic is None and set(names) <= set(RigidMidpointCoefficients.INTEGRALS):
                 # the coefficients at the midpoints in numpy rather than by the compiled Expression (film.tensors)
-                self._operator.fast = RigidMidpointCoefficients(self._operator, self.params, self.roughness, names)
+                self._operator.fast = RigidMidpointCoefficients(
+                    self._operator, self.params, self.roughness, names
+                )
             self.solver.assembler = self._operator.assemble
             self.solver.update()
             # the pressure part of the viscous torques (the "moment" group) from tensors (film.tensors)
-            self._pressure_torque = PressureTorque(self.V, self.roughness, float(self.params.S.value),
-                                                   flow_floor=None if elastic is None else floor)
-            self._scalars = [(keys, f) for keys, f in self._scalars if not set(keys) <= set(_PRESSURE_TORQUES)]
+            self._pressure_torque = PressureTorque(
+                self.V,
+                self.roughness,
+                float(self.params.S.value),
+                flow_floor=None if elastic is None else floor,
+            )
+            self._scalars = [
+                (keys, f) for keys, f in self._scalars if not set(keys) <= set(_PRESSURE_TORQUES)
+            ]
         self._dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self._owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         # the mass-conserving film (with an elastic bushing: the kinematic sensitivities of its residual)
@@ -506,10 +628,14 @@ class FilmModel:
             is_bc = np.zeros(len(self._owned_coords), dtype=bool)
             for dofs, _ in self._jfo.prescribed.values():
                 is_bc[dofs] = True
-            self._jfo_derivatives = MidpointJFO(self._operator, self._jfo_coefficients(),
-                                                list(self.geometry.variables().values()), is_bc)
+            self._jfo_derivatives = MidpointJFO(
+                self._operator, self._jfo_coefficients(), list(self.geometry.variables().values()), is_bc
+            )
             layout = self._jfo.csr_layout()
-            if not (np.array_equal(layout[0], self._operator.indptr) and np.array_equal(layout[1], self._operator.indices)):
+            if not (
+                np.array_equal(layout[0], self._operator.indptr)
+                and np.array_equal(layout[1], self._operator.indices)
+            ):
                 raise RuntimeError("the JFO film's matrices and the operator's have different CSR layouts")
             if transport == "limited":
                 self._limiter = TransportLimiter(*layout)
@@ -518,12 +644,16 @@ class FilmModel:
                 # orientation edge by edge), so the factors do not depend on the state being solved
                 self._unit_couette = self._jfo_derivatives.T_C @ np.ones(len(self._operator.cells))
         # nodal areas of the film (integral of each basis function): the cavitated area
-        self._nodal_areas = fem_petsc.assemble_vector(_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh)))
+        self._nodal_areas = fem_petsc.assemble_vector(
+            _form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh))
+        )
         self._nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._last: Kinematics | None = None
         self.stats = FilmStats()
         # with the max-gap inlet the solution frame turns with the eccentricity (serial: FrameTurn)
-        self._turn = FrameTurn(self._owned_coords) if bearing.inlet == "max-gap" and self.comm.size == 1 else None
+        self._turn = (
+            FrameTurn(self._owned_coords) if bearing.inlet == "max-gap" and self.comm.size == 1 else None
+        )
         self._fields = None  # output Functions and the expressions they interpolate (fields_si), built once
 
     # -- setup ----------------------------------------------------------------------------------
@@ -536,28 +666,58 @@ class FilmModel:
             P_c = self.contact.pressure(g.H / self.params.S, mod=ufl) / self.scales.pressure
         # expanded here: FFCx lowers dW/dtheta = grad(W).t inside its variable before it applies
         # derivatives, and the derivative with respect to the lowered variable comes out zero
-        derivatives = [expand_derivatives(e) for e in (
-            ufl.diff(k_theta, g.W), ufl.diff(k_z, g.W), ufl.diff(f, g.W), ufl.diff(f, g.dW_dtheta), P_c,
-            ufl.diff(P_c, g.W))]
+        derivatives = [
+            expand_derivatives(e)
+            for e in (
+                ufl.diff(k_theta, g.W),
+                ufl.diff(k_z, g.W),
+                ufl.diff(f, g.W),
+                ufl.diff(f, g.dW_dtheta),
+                P_c,
+                ufl.diff(P_c, g.W),
+            )
+        ]
         coords = self._owned_coords
-        shapes = self.elastic.shapes(np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R,
-                                     self._operator.nodal_areas, self.scales)
+        shapes = self.elastic.shapes(
+            np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, self._operator.nodal_areas, self.scales
+        )
         n = len(coords)
         pressure_map = None
         if self.piezo is not None:
+
             def pressure_map(Q: np.ndarray):
                 p = self._true_pressure(Q)
                 return p, self.piezo.ratio(p * self.scales.pressure)
+
         q_limit = None if self.piezo is None else self.piezo.q_limit / self.scales.pressure
         if self._jfo is not None:  # the mass-conserving film on the elastic bushing (solver.film.ehd_jfo)
             cavitation = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
-            ehd = ElasticJFOFilm(self._operator, self.P, self.W, np.full(n, cavitation), derivatives, shapes,
-                                 self._jfo_coefficients(), g.W, self._jfo.prescribed, pressure_map=pressure_map,
-                                 q_limit=q_limit)
+            ehd = ElasticJFOFilm(
+                self._operator,
+                self.P,
+                self.W,
+                np.full(n, cavitation),
+                derivatives,
+                shapes,
+                self._jfo_coefficients(),
+                g.W,
+                self._jfo.prescribed,
+                pressure_map=pressure_map,
+                q_limit=q_limit,
+            )
         else:
             lower = self.solver.lower.x.array[:n].copy()
-            ehd = ElasticFilm(self._operator, self.P, self.W, lower, derivatives, shapes, options,
-                              pressure_map=pressure_map, q_limit=q_limit)
+            ehd = ElasticFilm(
+                self._operator,
+                self.P,
+                self.W,
+                lower,
+                derivatives,
+                shapes,
+                options,
+                pressure_map=pressure_map,
+                q_limit=q_limit,
+            )
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self._midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
         return ehd
@@ -576,8 +736,17 @@ class FilmModel:
         D = k_theta * ufl.outer(g.tangent, g.tangent) + k_z * ufl.outer(g.axial, g.axial)
         lower = self._reduced(self.bearing.cavitation_pressure) / self.scales.pressure
         prescribed = {name: (dofs, value - lower) for name, (dofs, value) in self._prescribed().items()}
-        return JFOSolver(self.V, h_T, None, prescribed, D=D, flux=flux * g.tangent, rate=rate,
-                         quadrature_degree=1, options={"snes_max_it": 40})  # (engine: 1.2 iterations a solve; a cycling start is retried)
+        return JFOSolver(
+            self.V,
+            h_T,
+            None,
+            prescribed,
+            D=D,
+            flux=flux * g.tangent,
+            rate=rate,
+            quadrature_degree=1,
+            options={"snes_max_it": 40},
+        )  # (engine: 1.2 iterations a solve; a cycling start is retried)
 
     def _jfo_coefficients(self):
         """(k_theta, k_z, flux, h_T, rate) of the mass-conserving film (UFL): the Reynolds forms'
@@ -635,16 +804,25 @@ class FilmModel:
             slip_reg = self.slip_regularisation / s.speed
             P_c, tau_c, area = film.asperity_integrands(g, self.contact, s.pressure, slip_reg)
             torque_scale = whole * s.pressure * self.bearing.radius**3
-            self._outputs.update({
-                "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", "contact"),
-                "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", "contact"),
-                # the contact normals pass through the bushing centre, so on the journal they have the
-                # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
-                "asperity_torque_journal": (tau_c + self.bearing.clearance / self.bearing.radius * P_c
-                                            * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
-                                            torque_scale, "torque_journal", "contact"),
-                "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", "contact"),
-            })
+            self._outputs.update(
+                {
+                    "asperity_x": (-P_c * g.normal[0], whole * s.force, "force_x", "contact"),
+                    "asperity_y": (-P_c * g.normal[1], whole * s.force, "force_y", "contact"),
+                    # the contact normals pass through the bushing centre, so on the journal they have the
+                    # moment -e x F_asperity about its centre (the film's moment balance, T_j + T_b + e x F = 0)
+                    "asperity_torque_journal": (
+                        tau_c
+                        + self.bearing.clearance
+                        / self.bearing.radius
+                        * P_c
+                        * (g.eps_x * g.normal[1] - g.eps_y * g.normal[0]),
+                        torque_scale,
+                        "torque_journal",
+                        "contact",
+                    ),
+                    "asperity_torque_bushing": (-tau_c, torque_scale, "torque_bushing", "contact"),
+                }
+            )
             extra = {"contact_area": whole * area, "asperity_normal": whole * P_c}
         self._extra_names = list(extra)
         # Hydrodynamic forces are linear in P with weights independent of the kinematics: g_i . P.
@@ -655,13 +833,20 @@ class FilmModel:
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self._force_vectors[name] = vec
         # All other functionals of a solve in one pass over the cells per group.
-        scalars = {name: (e, group) for name, (e, _, _, group) in self._outputs.items() if name not in self._force_vectors}
+        scalars = {
+            name: (e, group)
+            for name, (e, _, _, group) in self._outputs.items()
+            if name not in self._force_vectors
+        }
         scalars.update({name: (e, "contact") for name, e in extra.items()})
         self._scalars = _functionals_by_group(self.mesh, scalars, groups)
         # the midpoint-rule functionals independent of P (the Couette torques): the tensor operator
         # can integrate them in its own evaluation of the coefficients (see _setup)
-        self._midpoint_integrands = {name: e for name, (e, group) in scalars.items() if group == "film"
-                                     and _is_zero(ufl.derivative(e, p, v))}
+        self._midpoint_integrands = {
+            name: e
+            for name, (e, group) in scalars.items()
+            if group == "film" and _is_zero(ufl.derivative(e, p, v))
+        }
         variables = list(g.variables().values())
         # Jacobian pieces: dr/dtheta at fixed P; per Jacobian row (outputs summed with their SI
         # scales) the explicit dE/dtheta that are not identically zero, and dE/dP as a vector.
@@ -671,8 +856,11 @@ class FilmModel:
         w_gradients: list[tuple[int, object, object]] = []
         for i, row in enumerate(_JACOBIAN_ROWS):
             for group, (measure, _) in groups.items():
-                members = [(name, e, scale) for name, (e, scale, r, gr) in self._outputs.items()
-                           if r == row and gr == group and name not in self._force_vectors]
+                members = [
+                    (name, e, scale)
+                    for name, (e, scale, r, gr) in self._outputs.items()
+                    if r == row and gr == group and name not in self._force_vectors
+                ]
                 if not members:  # (smooth film: hydrodynamic forces only)
                     continue
                 combined = sum(scale * e for _, e, scale in members)
@@ -690,10 +878,14 @@ class FilmModel:
         self._n_inputs = len(variables)
         self._gradient_rows = [i for i, _, _ in gradients]
         self._w_gradient_rows = [i for i, _, _ in w_gradients]
-        self._jacobian_vectors = BlockedVectors(self.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients])
+        self._jacobian_vectors = BlockedVectors(
+            self.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients]
+        )
         self._explicit = _functionals_by_group(self.mesh, explicit, groups)
         # Side and supply flows: the consistent flux r(P; w) with w = 1 on the edge / supply dofs (module doc).
-        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        edges = np.concatenate(
+            [self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])]
+        )
         self._side_flow_form = self._flux_form(fem.locate_dofs_topological(self.V, 1, edges), residual, v, dx)
         self._supply_flow_form = None
         if self.mesh_spec.supply is not None:
@@ -718,15 +910,19 @@ class FilmModel:
     def _prescribed(self) -> dict[str, tuple[np.ndarray, float]]:
         """The film's prescribed dofs by name ("edges", "seam" with the max-gap inlet, "supply") and
         the film unknown there (P: the reduced pressure / p_ref)."""
-        edges = np.concatenate([self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])])
+        edges = np.concatenate(
+            [self.facet_tags.find(TAGS["edge_minus"]), self.facet_tags.find(TAGS["edge_plus"])]
+        )
         out = {"edges": (fem.locate_dofs_topological(self.V, 1, edges), 0.0)}
         if self.bearing.inlet == "max-gap":  # the seam, theta = 0 (solver.film.mesh), at ambient pressure
             x = self.V.tabulate_dof_coordinates()
             out["seam"] = (np.flatnonzero((np.abs(x[:, 1]) < 1e-10) & (x[:, 0] > 0)).astype(np.int32), 0.0)
         if self.mesh_spec.supply is not None:  # hole or groove: the dofs of the supply cells
             cells = self.cell_tags.find(TAGS["supply"])
-            out["supply"] = (fem.locate_dofs_topological(self.V, 2, cells),
-                             self._reduced(self.bearing.supply_pressure) / self.scales.pressure)
+            out["supply"] = (
+                fem.locate_dofs_topological(self.V, 2, cells),
+                self._reduced(self.bearing.supply_pressure) / self.scales.pressure,
+            )
         return out
 
     def _boundary_conditions(self) -> list:
@@ -743,8 +939,8 @@ class FilmModel:
         rate) or the mass-conserving film (its film fraction)."""
         return self._ehd is not None or self._jfo is not None
 
-    def deformation_state(self) -> np.ndarray | None:
-        """The film state of the last solve, a copy, for ``commit_deformation``: the coupled unknowns
+    def history_state(self) -> np.ndarray | None:
+        """The film state of the last solve, a copy, for ``commit_history``: the coupled unknowns
         (pressure, then the elastic ones) of an elastic bushing, the JFO unknown u (theta = 1 +
         min(u, 0)) of the mass-conserving film; None without history."""
         if self._ehd is not None:
@@ -753,28 +949,30 @@ class FilmModel:
             return self._jfo.u.x.array[: len(self._owned_coords)].copy()
         return None
 
-    def commit_deformation(self, state: np.ndarray, time_s: float) -> None:
-        """Make ``state`` (from deformation_state) at ``time_s`` the start of the deformation's rate
+    def commit_history(self, state: np.ndarray, time_s: float) -> None:
+        """Make ``state`` (from history_state) at ``time_s`` the start of the deformation's rate
         (of the film fraction's, JFO) for solves after ``time_s`` (and the start of a solve that fails
         from the last one). Committed states at or after ``time_s`` are dropped (a history replayed
         from an earlier time)."""
         if not self.has_history:
             return
         if self.bearing.inlet == "max-gap":  # W_n (theta_n) would have to turn with the solution frame
-            raise InputError("a film with history (elastic bushing or cavitation 'jfo') needs inlet 'none', with "
-                             "or without a supply (allowed with 'max-gap': quasi-static solves only)")
+            raise InputError(
+                "a film with history (elastic bushing or cavitation 'jfo') needs inlet 'none', with "
+                "or without a supply (allowed with 'max-gap': quasi-static solves only)"
+            )
         earlier = [entry for entry in self._history if entry[0] < time_s]
-        self._history = [*earlier[len(earlier) - (self.HISTORY - 1):], (time_s, state.copy())]
+        self._history = [*earlier[len(earlier) - (self.HISTORY - 1) :], (time_s, state.copy())]
 
     def start_from(self, state: np.ndarray) -> None:
-        """Make ``state`` (from deformation_state) the next solve's warm start: the state one
+        """Make ``state`` (from history_state) the next solve's warm start: the state one
         integrator step before is a far better start than a solve of another time."""
         if self._ehd is not None:
             self._ehd.start_from(state)
         elif self._jfo is not None:
             self._jfo.u.x.array[: len(state)] = state
 
-    def deformation_history(self) -> list[tuple[float, np.ndarray]]:
+    def committed_history(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first: (time [s], coupled unknowns), copies (for a
         checkpoint: committed again in that order, they restore the deformation's history); [] if rigid."""
         return [(time_s, state.copy()) for time_s, state in self._history]
@@ -855,12 +1053,20 @@ class FilmModel:
         s, c = self.scales, self.bearing.clearance
         eps = np.asarray(kin.ecc, float) / c
         if not math.hypot(*eps) < self.max_eccentricity_ratio:
-            raise out_of_range("eccentricity ratio", f"{math.hypot(*eps):.6g}", f"[0, {self.max_eccentricity_ratio:g})")
+            raise out_of_range(
+                "eccentricity ratio", f"{math.hypot(*eps):.6g}", f"[0, {self.max_eccentricity_ratio:g})"
+            )
         rate = np.asarray(kin.ecc_rate, float) / s.eccentricity_rate
         U2 = self.bearing.radius * (kin.omega_journal - kin.omega_bushing) / s.speed  # journal, bushing frame
         U1 = 0.0
-        self.params.set(eps_x=eps[0], eps_y=eps[1], deps_x=rate[0], deps_y=rate[1],
-                        U_mean=(U1 + U2) / 2, U_half_diff=(U1 - U2) / 2)
+        self.params.set(
+            eps_x=eps[0],
+            eps_y=eps[1],
+            deps_x=rate[0],
+            deps_y=rate[1],
+            U_mean=(U1 + U2) / 2,
+            U_half_diff=(U1 - U2) / 2,
+        )
 
     def _frame_angle(self, kin: Kinematics) -> float:
         """Angle beta by which the solution frame is turned from the bushing frame.
@@ -881,7 +1087,7 @@ class FilmModel:
         """Solve the film for the given kinematics (warm start from the last pressure).
 
         With an elastic bushing, ``time_s`` [s] puts the deformation's rate in the squeeze term: BDF2
-        through the two latest states committed (``commit_deformation``) before ``time_s`` (implicit
+        through the two latest states committed (``commit_history``) before ``time_s`` (implicit
         Euler after the first commit; ``_set_rate``), so that a state solved again at the time of the
         last commit keeps its rate; without ``time_s`` (or before any commit) the deformation is
         quasi-static.
@@ -909,7 +1115,9 @@ class FilmModel:
                 stats.vi_iterations += err.iterations
                 self._upwind_key = self._limited_key
                 stats.transport_fallbacks += 1
-                log.debug("JFO film: limited transport did not converge (%s); upwind until the next commit", err)
+                log.debug(
+                    "JFO film: limited transport did not converge (%s); upwind until the next commit", err
+                )
                 self._limit_transport()
                 result = self._solve(kin, start)
         except FilmNotConverged as err:
@@ -932,7 +1140,9 @@ class FilmModel:
                 if isinstance(self.elastic, WinklerLayer):  # its unknowns are the nodal deformation
                     self._ehd.q = self._turn(self._ehd.q, delta)
         rot = _rotation(-beta)
-        solved = Kinematics(tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing)
+        solved = Kinematics(
+            tuple(rot @ kin.ecc), tuple(rot @ kin.ecc_rate), kin.omega_journal, kin.omega_bushing
+        )
         self.set_kinematics(solved)
         if self._ehd is not None:
             iterations = self._solve_elastic()
@@ -947,8 +1157,12 @@ class FilmModel:
         if self.piezo is not None:
             p = self._true_pressure(self.P.x.array)
             if not np.all(np.isfinite(p)):
-                raise FilmNotConverged("piezoviscous film: unbounded pressure (the reduced pressure reached its "
-                                       "limit); at this load the film needs an elastic bushing", 0, iterations)
+                raise FilmNotConverged(
+                    "piezoviscous film: unbounded pressure (the reduced pressure reached its "
+                    "limit); at this load the film needs an elastic bushing",
+                    0,
+                    iterations,
+                )
             self.pressure.x.array[:] = p
         self._last, self._beta = kin, beta
         self._in_contact = self._contact_cells()  # for the functionals and the Jacobian of this state
@@ -975,15 +1189,28 @@ class FilmModel:
                 asperity_p_max = float(self.contact.pressure(np.array([h_min / self.sigma]))[0])
         return FilmResult(
             force=(float(hydro[0] + asperity[0]), float(hydro[1] + asperity[1])),
-            hydro_force=(float(hydro[0]), float(hydro[1])), asperity_force=(float(asperity[0]), float(asperity[1])),
-            p_max=p_max * s.pressure, p_max_theta=(theta + beta) % (2 * math.pi), p_max_z=z * self.bearing.radius,
-            h_min=h_min, torque_journal=values["torque_journal"], torque_bushing=values["torque_bushing"],
+            hydro_force=(float(hydro[0]), float(hydro[1])),
+            asperity_force=(float(asperity[0]), float(asperity[1])),
+            p_max=p_max * s.pressure,
+            p_max_theta=(theta + beta) % (2 * math.pi),
+            p_max_z=z * self.bearing.radius,
+            h_min=h_min,
+            torque_journal=values["torque_journal"],
+            torque_bushing=values["torque_bushing"],
             asperity_torque_journal=values.get("asperity_torque_journal", 0.0),
-            asperity_normal_force=asperity_normal, contact_area_ratio=contact_area, asperity_p_max=asperity_p_max,
-            side_flow=flows[0], supply_flow=flows[1], cavitated_area_ratio=self._cavitated_area(),
+            asperity_normal_force=asperity_normal,
+            contact_area_ratio=contact_area,
+            asperity_p_max=asperity_p_max,
+            side_flow=flows[0],
+            supply_flow=flows[1],
+            cavitated_area_ratio=self._cavitated_area(),
             oil_volume=self._oil_volume(),
-            iterations=iterations, solve_time=time.perf_counter() - start, sigma=self.sigma,
-            max_deformation=deformation[0], max_deformation_theta=deformation[1])
+            iterations=iterations,
+            solve_time=time.perf_counter() - start,
+            sigma=self.sigma,
+            max_deformation=deformation[0],
+            max_deformation_theta=deformation[1],
+        )
 
     #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
     RATE_CONTINUATION = 2.0
@@ -995,7 +1222,9 @@ class FilmModel:
         solve, which inside a time step's Newton iteration can be a state far from this one; if the
         solve fails from there it is tried again from the committed state (the last accepted one)."""
         coords, ehd = self._owned_coords, self._ehd
-        ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array([float(self.params.eps_x.value), float(self.params.eps_y.value)])
+        ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array(
+            [float(self.params.eps_x.value), float(self.params.eps_y.value)]
+        )
         try:
             return ehd.solve()
         except FilmNotConverged as err:
@@ -1018,9 +1247,12 @@ class FilmModel:
             except FilmNotConverged as again:
                 self._inverse_step.value = target
                 dt = 1 / (inverse_step * self.scales.omega_ref) if inverse_step > 0 else math.inf
-                raise FilmNotConverged(f"elastic film solve did not converge (also continued from the last "
-                                       f"accepted state, to dt = {dt:.3g} s)",
-                                       again.reason, iterations + again.iterations) from None
+                raise FilmNotConverged(
+                    f"elastic film solve did not converge (also continued from the last "
+                    f"accepted state, to dt = {dt:.3g} s)",
+                    again.reason,
+                    iterations + again.iterations,
+                ) from None
         return iterations
 
     def _film_fraction_rate(self, time_s: float | None) -> tuple[float, np.ndarray] | None:
@@ -1069,8 +1301,12 @@ class FilmModel:
             except FilmNotConverged as err:
                 iterations += err.iterations
                 if k == len(starts) - 1:
-                    raise FilmNotConverged("mass-conserving film did not converge (also from the last committed "
-                                           "state and from the full film)", err.reason, iterations) from None
+                    raise FilmNotConverged(
+                        "mass-conserving film did not converge (also from the last committed "
+                        "state and from the full film)",
+                        err.reason,
+                        iterations,
+                    ) from None
         solution = dataclasses.replace(solution, iterations=solution.iterations + iterations)
         self._jfo_solution = solution
         self.P.x.array[:n] = self.solver.lower.x.array[:n] + solution.pressure
@@ -1083,7 +1319,9 @@ class FilmModel:
         if self._jfo is not None:
             outflow = self._jfo_solution.outflow
             return outflow["edges"] * whole * s.flow, -outflow.get("supply", 0.0) * whole * s.flow
-        supply = self._assemble(self._supply_flow_form) * s.flow if self._supply_flow_form is not None else 0.0
+        supply = (
+            self._assemble(self._supply_flow_form) * s.flow if self._supply_flow_form is not None else 0.0
+        )
         return -self._assemble(self._side_flow_form) * s.flow, supply
 
     def _cavitated_area(self) -> float:
@@ -1095,7 +1333,9 @@ class FilmModel:
             ruptured = self._jfo_solution.theta < 1.0
         else:
             lower = self.solver.lower.x.array[:n]
-            ruptured = self.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+            ruptured = self.P.x.array[:n] - lower <= 1e-12 * max(
+                1.0, float(np.max(np.abs(lower), initial=0.0))
+            )
         local = np.array([areas[ruptured].sum(), areas.sum()])
         total = local if self.comm.size == 1 else self.comm.allreduce(local, op=MPI.SUM)
         return float(total[0] / total[1])
@@ -1120,7 +1360,9 @@ class FilmModel:
             return at_nodes * self.bearing.clearance
         angle = math.atan2(eps[1], eps[0])
         mid = self._midplane
-        nearest = mid[np.argmin(np.abs(np.angle(np.exp(1j * (np.arctan2(coords[mid, 1], coords[mid, 0]) - angle)))))]
+        nearest = mid[
+            np.argmin(np.abs(np.angle(np.exp(1j * (np.arctan2(coords[mid, 1], coords[mid, 0]) - angle)))))
+        ]
         at_gap = 1.0 - math.hypot(*eps) + W[nearest]
         return min(at_nodes, at_gap) * self.bearing.clearance
 
@@ -1134,9 +1376,17 @@ class FilmModel:
         if self.contact is None:
             return np.zeros(0, dtype=np.int32)
         eps_x, eps_y = float(self.params.eps_x.value), float(self.params.eps_y.value)
-        limit = self.contact.support * self.sigma / self.bearing.clearance + math.hypot(eps_x, eps_y) * self._cell_extent
+        limit = (
+            self.contact.support * self.sigma / self.bearing.clearance
+            + math.hypot(eps_x, eps_y) * self._cell_extent
+        )
         if self.W is not None:  # the deformation at the vertices (P1: the cells' dofs)
-            H = 1.0 - eps_x * self._vertex_cos - eps_y * self._vertex_sin + self.W.x.array[self._operator.dofs]
+            H = (
+                1.0
+                - eps_x * self._vertex_cos
+                - eps_y * self._vertex_sin
+                + self.W.x.array[self._operator.dofs]
+            )
             return self._owned_cells[H.min(axis=1) < limit]
         below = 1.0 - eps_x * self._node_cos - eps_y * self._node_sin < limit  # at the nodes
         a, b, c = self._cell_nodes
@@ -1157,9 +1407,12 @@ class FilmModel:
             raw.update(zip(self._operator_integral_names, self._operator.integrals))
         if self._pressure_torque is not None:
             n = self._pressure_torque.B.shape[1]
-            value = self._pressure_torque(self.pressure.x.array[:n], float(self.params.eps_x.value),
-                                          float(self.params.eps_y.value),
-                                          None if self.W is None else self.W.x.array[:n])
+            value = self._pressure_torque(
+                self.pressure.x.array[:n],
+                float(self.params.eps_x.value),
+                float(self.params.eps_y.value),
+                None if self.W is None else self.W.x.array[:n],
+            )
             raw.update(dict.fromkeys(_PRESSURE_TORQUES, value))
         for names, functionals in self._scalars:
             raw.update(zip(names, self._integrate(functionals)))
@@ -1176,7 +1429,11 @@ class FilmModel:
         values = self.pressure.x.array[:n_owned]
         if n_owned:
             i = int(np.argmax(values))
-            local = (float(values[i]), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi), float(coords[i, 2]))
+            local = (
+                float(values[i]),
+                math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi),
+                float(coords[i, 2]),
+            )
         else:
             local = (-math.inf, 0.0, 0.0)
         return local if self.comm.size == 1 else max(self.comm.allgather(local))
@@ -1200,8 +1457,11 @@ class FilmModel:
             fem_petsc.set_bc(vec, self.bcs, scale=0.0)
         if self._ehd is not None:  # pressure and deformation together (solver.film.ehd, ehd_jfo)
             names = list(self.geometry.variables())
-            dr_film = ([v.getArray().copy() for v in dr] if self._jfo is None
-                       else self._jfo_derivatives.kinematic_derivatives(self._ehd.u, self._ehd.rate))
+            dr_film = (
+                [v.getArray().copy() for v in dr]
+                if self._jfo is None
+                else self._jfo_derivatives.kinematic_derivatives(self._ehd.u, self._ehd.rate)
+            )
             d = self._ehd.sensitivities(self._ehd.residual_derivatives(dr_film, names))
             n = self._ehd.n
             dP_arrays = [d_k[:n] for d_k in d]
@@ -1271,8 +1531,10 @@ class FilmModel:
     def _fields_si(self) -> dict[str, fem.Function]:
         if self._fields is None:  # Functions and compiled expressions, reused by every call
             points = self.V.element.interpolation_points()
-            functions = {"pressure": fem.Function(self.V, name="pressure_Pa"),
-                         "film_thickness": fem.Function(self.V, name="film_thickness_m")}
+            functions = {
+                "pressure": fem.Function(self.V, name="pressure_Pa"),
+                "film_thickness": fem.Function(self.V, name="film_thickness_m"),
+            }
             if self.W is not None:
                 functions["deformation"] = fem.Function(self.V, name="deformation_m")
             if self._jfo is not None:
@@ -1327,7 +1589,9 @@ class BlockedVectors:
         self.size = len(integrands)
         blocked = fem.VectorFunctionSpace(V.mesh, (element.family(), element.degree()), dim=self.size)
         w = ufl.TestFunction(blocked)
-        self.form = _form(sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands)))
+        self.form = _form(
+            sum(ufl.replace(e, {v: w[i]}) * measure for i, (e, measure) in enumerate(integrands))
+        )
         self.blocked = fem_petsc.create_vector(self.form)
         n_owned = V.dofmap.index_map.size_local
         if blocked.dofmap.index_map.size_local != n_owned:
@@ -1396,8 +1660,9 @@ def _functionals_by_group(mesh, integrands: dict, groups: dict) -> list[tuple[li
     out = []
     for group, items in members.items():
         measure, contact_only = groups[group]
-        functionals = QuadratureFunctionals(mesh, [e for _, e in items], measure.metadata()["quadrature_degree"],
-                                            contact_only=contact_only)
+        functionals = QuadratureFunctionals(
+            mesh, [e for _, e in items], measure.metadata()["quadrature_degree"], contact_only=contact_only
+        )
         out.append(([key for key, _ in items], functionals))
     return out
 
@@ -1425,8 +1690,16 @@ class Equilibrium:
     force_residual: float  # N, |film force + load| at the solution
 
 
-def equilibrium(model: FilmModel, load: tuple[float, float], *, omega_journal: float, omega_bushing: float = 0.0,
-                tol: float = 1e-7, max_iterations: int = 60, guess: tuple[float, float] | None = None) -> Equilibrium:
+def equilibrium(
+    model: FilmModel,
+    load: tuple[float, float],
+    *,
+    omega_journal: float,
+    omega_bushing: float = 0.0,
+    tol: float = 1e-7,
+    max_iterations: int = 60,
+    guess: tuple[float, float] | None = None,
+) -> Equilibrium:
     """Find the eccentricity at which the film (and asperity) force balances the load on the journal.
 
     Newton's method with the film's exact Jacobian, in the coordinates ``s = -ln(1 - eps/eps_lim)`` and
@@ -1487,13 +1760,17 @@ def equilibrium(model: FilmModel, load: tuple[float, float], *, omega_journal: f
             lam *= 0.5
             if lam < 1e-3:
                 if x[0] >= s_max * (1 - 1e-9) and np.dot(res.force, W) < 0 and res.load < W_norm:
-                    raise InputError(f"load = {W_norm:g} N cannot be carried (eccentricity ratio reaches "
-                                     f"{MAX_ECCENTRICITY * limit:g})")
+                    raise InputError(
+                        f"load = {W_norm:g} N cannot be carried (eccentricity ratio reaches "
+                        f"{MAX_ECCENTRICITY * limit:g})"
+                    )
                 # The discrete VI force is only piecewise smooth (the active set moves node by node);
                 # very near eps = 1 its kinks put a floor of ~1e-4 |W| under the residual.
                 if np.linalg.norm(r) <= STALL_TOLERANCE * W_norm:
                     return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
-                raise InputError(f"load = {W_norm:g} N: the equilibrium search stalled at eccentricity ratio "
-                                 f"{eps:.6f} (residual {np.linalg.norm(r):.3g} N)")
+                raise InputError(
+                    f"load = {W_norm:g} N: the equilibrium search stalled at eccentricity ratio "
+                    f"{eps:.6f} (residual {np.linalg.norm(r):.3g} N)"
+                )
         x, kin, res, r = trial, kin_t, res_t, r_t
     raise InputError(f"load = {W_norm:g} N: no equilibrium found in {max_iterations} Newton iterations")

@@ -194,8 +194,16 @@ class CavitatingSolver:
         options: PETSc options merged over ``DEFAULT_OPTIONS``.
     """
 
-    def __init__(self, a: fem.FormMetaClass, l: fem.FormMetaClass, P: fem.Function, bcs: list,
-                 lower: float, options: dict | None = None, fixed_pattern: bool = True):
+    def __init__(
+        self,
+        a: fem.FormMetaClass,
+        l: fem.FormMetaClass,
+        P: fem.Function,
+        bcs: list,
+        lower: float,
+        options: dict | None = None,
+        fixed_pattern: bool = True,
+    ):
         #: replaces the dolfinx assembly of A and l when set: ``assembler(A, l_vector)`` (film.tensors)
         self.assembler = None
         self.a, self.l, self.P, self.bcs = a, l, P, bcs
@@ -211,7 +219,9 @@ class CavitatingSolver:
         # The bounds must not bind Dirichlet dofs whose value lies below P_cav.
         for bc in bcs:
             dofs = bc.dof_indices()[0]
-            self.lower.x.array[dofs] = np.minimum(self.lower.x.array[dofs], bc.g.x.array[dofs] if hasattr(bc.g, "x") else lower)
+            self.lower.x.array[dofs] = np.minimum(
+                self.lower.x.array[dofs], bc.g.x.array[dofs] if hasattr(bc.g, "x") else lower
+            )
         self.lower.x.scatter_forward()
         merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": _lu_package(self.comm), **(options or {})}
         self.snes = configured_snes(self.comm, "film", merged)
@@ -232,7 +242,9 @@ class CavitatingSolver:
         self.lu: FixedPatternLU | None = None
         self._shell: PETSc.Mat | None = None  # the SNES Jacobian with FixedPatternLU (_FilmShell)
         self.update()
-        if fixed_pattern and merged["snes_type"] == "vinewtonrsls":  # FixedPatternLU reads the VI's inactive set
+        if (
+            fixed_pattern and merged["snes_type"] == "vinewtonrsls"
+        ):  # FixedPatternLU reads the VI's inactive set
             self.lu = FixedPatternLU(self)
             pc = self.snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
@@ -316,7 +328,9 @@ class CavitatingSolver:
             raise FilmNotConverged("film solve did not converge", reason, self.iterations)
         violation = _max(self.comm, float(np.max(self.lower.x.array - self.P.x.array, initial=0.0)))
         if violation > 1e-8 * max(1.0, self.pressure_scale()):
-            raise FilmNotConverged(f"film solve violated the cavitation bound by {violation:.3g}", reason, self.iterations)
+            raise FilmNotConverged(
+                f"film solve violated the cavitation bound by {violation:.3g}", reason, self.iterations
+            )
         self._sens_ksp = None
         return self.iterations
 
@@ -404,4 +418,3 @@ class CavitatingSolver:
 def _max(comm, value: float) -> float:
     """The largest value over the ranks (no message on one rank: mpi4py's allreduce pickles)."""
     return value if comm.size == 1 else comm.allreduce(value, op=MPI.MAX)
-

@@ -124,8 +124,11 @@ class EyeGeometry:
             raise out_of_range("eye.bushing_thickness", self.bushing_thickness, ">= 0")
         inner = self.bore_radius + self.bushing_thickness
         if not self.eye_outer_radius > inner:
-            raise out_of_range("eye.eye_outer_radius", self.eye_outer_radius,
-                               f"> bore radius + bushing thickness = {inner:g}")
+            raise out_of_range(
+                "eye.eye_outer_radius",
+                self.eye_outer_radius,
+                f"> bore radius + bushing thickness = {inner:g}",
+            )
         for name in ("nu_eye", "nu_bushing"):
             if not 0 <= getattr(self, name) < 0.5:
                 raise out_of_range(f"eye.{name}", getattr(self, name), "[0, 0.5)")
@@ -205,8 +208,9 @@ class Compliance:
         vals = np.stack([(1 - s) * (1 - q), s * (1 - q), (1 - s) * q, s * q], axis=1)
         return scipy.sparse.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(theta.size, self.size))
 
-    def generalised_forces(self, pressure: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                           refine: int = 8) -> np.ndarray:
+    def generalised_forces(
+        self, pressure: Callable[[np.ndarray, np.ndarray], np.ndarray], refine: int = 8
+    ) -> np.ndarray:
         """f_i = int p hat_i dA [N] for a pressure p(theta [rad], z [m]) [Pa], formed as the film code does.
 
         Nodal forces F = p dA at the midpoints of a ``refine`` times finer grid, then ``f = T^T F``
@@ -215,8 +219,10 @@ class Compliance:
         R, half_width = self.geometry.bore_radius, self.geometry.width / 2
         d_theta = 2 * math.pi / (self.theta.size * refine)
         dz = half_width / ((self.z.size - 1) * refine)
-        theta_q, z_q = np.meshgrid((np.arange(self.theta.size * refine) + 0.5) * d_theta,
-                                   (np.arange((self.z.size - 1) * refine) + 0.5) * dz)
+        theta_q, z_q = np.meshgrid(
+            (np.arange(self.theta.size * refine) + 0.5) * d_theta,
+            (np.arange((self.z.size - 1) * refine) + 0.5) * dz,
+        )
         F = pressure(theta_q, z_q) * (R * d_theta * dz)
         return self.interpolation(theta_q, z_q).T @ F.ravel()
 
@@ -251,9 +257,16 @@ class Compliance:
     def write(self, path: str | Path) -> None:
         """Write to an .npz file (not atomic: see ``eye_compliance`` for the cache)."""
         with open(path, "wb") as stream:
-            np.savez(stream, format_version=FORMAT_VERSION,
-                     geometry=json.dumps(dataclasses.asdict(self.geometry)), theta=self.theta, z=self.z,
-                     areas=self.areas, matrix=self.matrix, clamped=self.clamped)
+            np.savez(
+                stream,
+                format_version=FORMAT_VERSION,
+                geometry=json.dumps(dataclasses.asdict(self.geometry)),
+                theta=self.theta,
+                z=self.z,
+                areas=self.areas,
+                matrix=self.matrix,
+                clamped=self.clamped,
+            )
 
     @classmethod
     def read(cls, path: str | Path) -> Compliance:
@@ -287,9 +300,11 @@ def reference_loads(compliance: Compliance) -> dict[str, np.ndarray]:
 
         return pressure
 
-    return {"uniform": compliance.areas.copy(),
-            "opposite": compliance.generalised_forces(bump(theta_s + math.pi)),
-            "side": compliance.generalised_forces(bump(theta_s + math.pi / 2))}
+    return {
+        "uniform": compliance.areas.copy(),
+        "opposite": compliance.generalised_forces(bump(theta_s + math.pi)),
+        "side": compliance.generalised_forces(bump(theta_s + math.pi / 2)),
+    }
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -305,8 +320,9 @@ def _support_angles(geometry: EyeGeometry, clamp: bool) -> list[float]:
     return [0.0, math.pi / 2, math.pi, 3 * math.pi / 2]
 
 
-def _build_gmsh_model(geometry: EyeGeometry, element_size: float, bore_element_size: float,
-                      clamp: bool) -> None:
+def _build_gmsh_model(
+    geometry: EyeGeometry, element_size: float, bore_element_size: float, clamp: bool
+) -> None:
     """Eye and bushing (lengths / R) as annular sectors, fragmented into one conforming mesh."""
     occ = gmsh.model.occ
     R = geometry.bore_radius
@@ -326,9 +342,13 @@ def _build_gmsh_model(geometry: EyeGeometry, element_size: float, bore_element_s
     eye = [p for a, b in ends for p in sector(r_interface, r_outer, a, b)]
     _, pieces = occ.fragment(bushing + eye, [])
     occ.synchronize()
-    groups = {"bushing": [t for piece in pieces[: len(bushing)] for _, t in piece],
-              "eye": [t for piece in pieces[len(bushing):] for _, t in piece],
-              "bore": [], "symmetry": [], "clamp": []}
+    groups = {
+        "bushing": [t for piece in pieces[: len(bushing)] for _, t in piece],
+        "eye": [t for piece in pieces[len(bushing) :] for _, t in piece],
+        "bore": [],
+        "symmetry": [],
+        "clamp": [],
+    }
     theta_s, alpha = math.radians(geometry.shank_angle_deg), math.radians(geometry.shank_half_angle_deg)
     for _, tag in gmsh.model.getEntities(2):  # a cylindrical face lies on the clamped arc or off it
         if gmsh.model.getBoundingBox(2, tag)[5] < 1e-6:  # (gmsh pads bounding boxes by 1e-7)
@@ -347,14 +367,24 @@ def _build_gmsh_model(geometry: EyeGeometry, element_size: float, bore_element_s
             dim = 3 if name in ("bushing", "eye") else 2
             gmsh.model.addPhysicalGroup(dim, tags, TAGS[name])
             gmsh.model.setPhysicalName(dim, TAGS[name], name)
-    _set_sizes(groups["bushing"] or groups["eye"], element_size, bore_element_size, (r_bore, r_interface),
-               r_outer if clamp else None)
+    _set_sizes(
+        groups["bushing"] or groups["eye"],
+        element_size,
+        bore_element_size,
+        (r_bore, r_interface),
+        r_outer if clamp else None,
+    )
     gmsh.model.mesh.generate(3)
     gmsh.model.mesh.setOrder(2)
 
 
-def _set_sizes(inner_volumes: list[int], element_size: float, bore_element_size: float,
-               bore_radii: tuple[float, float], clamp_radius: float | None) -> None:
+def _set_sizes(
+    inner_volumes: list[int],
+    element_size: float,
+    bore_element_size: float,
+    bore_radii: tuple[float, float],
+    clamp_radius: float | None,
+) -> None:
     """Element sizes: ``element_size`` in the eye, ``bore_element_size`` on the bore and the bushing
     (the points of the innermost volumes at the bore radii), and a sixth of the element size at the
     clamp's edges (the axial lines at the ends of the arc, where the stress is singular), graded
@@ -394,8 +424,14 @@ def _on_radius(point: int, *radii: float) -> bool:
     return any(abs(math.hypot(x, y) - r) < 1e-6 for r in radii)
 
 
-def eye_mesh(geometry: EyeGeometry, comm: MPI.Comm, *, element_size: float, bore_element_size: float,
-             clamp: bool = True):
+def eye_mesh(
+    geometry: EyeGeometry,
+    comm: MPI.Comm,
+    *,
+    element_size: float,
+    bore_element_size: float,
+    clamp: bool = True,
+):
     """The eye's mesh (lengths / R) on ``comm``: ``(mesh, cell_tags, facet_tags)`` with ``TAGS``.
 
     gmsh runs on rank 0; dolfinx distributes the mesh over ``comm``.
@@ -434,21 +470,37 @@ class ElasticEye:
         V: the P2 displacement space; ``ds_bore``: the bore's measure.
     """
 
-    def __init__(self, geometry: EyeGeometry, comm: MPI.Comm = MPI.COMM_SELF, *,
-                 element_size: float | None = None, bore_element_size: float | None = None,
-                 clamp: bool = True):
+    def __init__(
+        self,
+        geometry: EyeGeometry,
+        comm: MPI.Comm = MPI.COMM_SELF,
+        *,
+        element_size: float | None = None,
+        bore_element_size: float | None = None,
+        clamp: bool = True,
+    ):
         self.geometry, self.comm, self.clamp = geometry, comm, clamp
         R = geometry.bore_radius
         self.element_size = element_size if element_size is not None else DEFAULT_ELEMENT_SIZE * R
         if bore_element_size is None:
-            bore_element_size = max(min(self.element_size, geometry.bushing_thickness or self.element_size),
-                                    self.element_size / 4)
+            bore_element_size = max(
+                min(self.element_size, geometry.bushing_thickness or self.element_size), self.element_size / 4
+            )
         self.bore_element_size = bore_element_size
-        self.mesh, cell_tags, self.facet_tags = eye_mesh(geometry, comm, element_size=self.element_size / R,
-                                                         bore_element_size=bore_element_size / R, clamp=clamp)
+        self.mesh, cell_tags, self.facet_tags = eye_mesh(
+            geometry,
+            comm,
+            element_size=self.element_size / R,
+            bore_element_size=bore_element_size / R,
+            clamp=clamp,
+        )
         self.V = fem.VectorFunctionSpace(self.mesh, ("Lagrange", 2))
-        self.ds_bore = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags,
-                                   metadata={"quadrature_degree": _QUADRATURE_DEGREE})(TAGS["bore"])
+        self.ds_bore = ufl.Measure(
+            "ds",
+            domain=self.mesh,
+            subdomain_data=self.facet_tags,
+            metadata={"quadrature_degree": _QUADRATURE_DEGREE},
+        )(TAGS["bore"])
         self.bcs = self._supports(self.facet_tags)
         self.K = fem_petsc.assemble_matrix(fem.form(self._stiffness(cell_tags)), bcs=self.bcs)
         self.K.assemble()
@@ -491,6 +543,7 @@ class ElasticEye:
             return bcs + [fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), clamp, self.V)]
         # the bore points on the axes at z = 0 are mesh vertices (see _support_angles)
         for component, points in ((1, [(1, 0), (-1, 0)]), (0, [(0, 1), (0, -1)])):
+
             def at_points(x, points=points):
                 return np.any([np.hypot(x[0] - a, x[1] - b) + np.abs(x[2]) < 1e-8 for a, b in points], axis=0)
 
@@ -541,8 +594,9 @@ class ElasticEye:
         spacing_theta = fem.Constant(self.mesh, theta[1] - theta[0])
         spacing_Z = fem.Constant(self.mesh, Z[1] - Z[0])
         d_theta = ufl.atan_2(cos * X[1] - sin * X[0], cos * X[0] + sin * X[1])  # theta - theta_j in (-pi, pi]
-        hat = (ufl.max_value(0.0, 1 - abs(d_theta) / spacing_theta)
-               * ufl.max_value(0.0, 1 - abs(X[2] - Z_k) / spacing_Z))
+        hat = ufl.max_value(0.0, 1 - abs(d_theta) / spacing_theta) * ufl.max_value(
+            0.0, 1 - abs(X[2] - Z_k) / spacing_Z
+        )
         n = ufl.FacetNormal(self.mesh)
         load = fem.form(-hat * ufl.inner(n, ufl.TestFunction(self.V)) * self.ds_bore)
         area = fem.form(hat * self.ds_bore)
@@ -562,13 +616,13 @@ class ElasticEye:
         n_local, n_global = self.K.getLocalSize()[0], self.K.getSize()[0]
         result = np.zeros((B.shape[1], B.shape[1]))
         for start in range(0, B.shape[1], _BLOCK):
-            block = B[:, start:start + _BLOCK]
+            block = B[:, start : start + _BLOCK]
             size = ((n_local, n_global), (PETSc.DECIDE, block.shape[1]))
             rhs = PETSc.Mat().createDense(size, array=np.asfortranarray(block.toarray()), comm=self.comm)
             solution = PETSc.Mat().createDense(size, comm=self.comm)
             solution.setUp()
             factor.matSolve(rhs, solution)
-            result[:, start:start + block.shape[1]] = B.T @ solution.getDenseArray()
+            result[:, start : start + block.shape[1]] = B.T @ solution.getDenseArray()
             rhs.destroy()
             solution.destroy()
         return self.comm.allreduce(result, op=MPI.SUM)
@@ -597,15 +651,28 @@ def default_cache_dir() -> Path:
 
 def cache_key(geometry: EyeGeometry, n_theta: int, n_z: int, element_size: float, clamp: bool = True) -> str:
     """sha256 of everything the compliance depends on (geometry, grid, element size [m], support, format)."""
-    inputs = {"format": FORMAT_VERSION, "geometry": dataclasses.asdict(geometry), "n_theta": n_theta,
-              "n_z": n_z, "element_size": element_size, "clamp": clamp}
+    inputs = {
+        "format": FORMAT_VERSION,
+        "geometry": dataclasses.asdict(geometry),
+        "n_theta": n_theta,
+        "n_z": n_z,
+        "element_size": element_size,
+        "clamp": clamp,
+    }
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
-def eye_compliance(geometry: EyeGeometry, *, n_theta: int = 72, n_z: int = 5,
-                   element_size: float | None = None, comm: MPI.Comm = MPI.COMM_SELF,
-                   cache_dir: str | Path | None = None, use_cache: bool = True,
-                   clamp: bool = True) -> Compliance:
+def eye_compliance(
+    geometry: EyeGeometry,
+    *,
+    n_theta: int = 72,
+    n_z: int = 5,
+    element_size: float | None = None,
+    comm: MPI.Comm = MPI.COMM_SELF,
+    cache_dir: str | Path | None = None,
+    use_cache: bool = True,
+    clamp: bool = True,
+) -> Compliance:
     """The compliance of the eye on an ``n_theta x n_z`` hat grid, from the cache when it is there.
 
     Args:
@@ -632,9 +699,14 @@ def eye_compliance(geometry: EyeGeometry, *, n_theta: int = 72, n_z: int = 5,
     loads = reference_loads(compliance)
     m = min(DEFAULT_MODES, compliance.size)
     errors = compliance.truncation_error(m, np.column_stack(list(loads.values())))
-    log.info("eye compliance: %d dofs, %d load cases, %.1f s; truncation error with %d modes: %s", dofs,
-             compliance.size, time.perf_counter() - start, m,
-             ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)))
+    log.info(
+        "eye compliance: %d dofs, %d load cases, %.1f s; truncation error with %d modes: %s",
+        dofs,
+        compliance.size,
+        time.perf_counter() - start,
+        m,
+        ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)),
+    )
     if use_cache and comm.rank == 0:
         _write_cache(compliance, path)
     return compliance
@@ -657,8 +729,9 @@ def _write_cache(compliance: Compliance, path: Path) -> None:
     temporary = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.stem, suffix=".part",
-                                         delete=False) as file:
+        with tempfile.NamedTemporaryFile(
+            dir=path.parent, prefix=path.stem, suffix=".part", delete=False
+        ) as file:
             temporary = Path(file.name)
         compliance.write(temporary)
         os.replace(temporary, path)
@@ -668,6 +741,17 @@ def _write_cache(compliance: Compliance, path: Path) -> None:
             temporary.unlink(missing_ok=True)
 
 
-__all__ = ["DEFAULT_ELEMENT_SIZE", "DEFAULT_MODES", "TAGS", "Compliance", "ElasticEye", "EyeGeometry",
-           "cache_key", "default_cache_dir", "eye_compliance", "eye_mesh", "reference_loads",
-           "winkler_coefficient"]
+__all__ = [
+    "DEFAULT_ELEMENT_SIZE",
+    "DEFAULT_MODES",
+    "TAGS",
+    "Compliance",
+    "ElasticEye",
+    "EyeGeometry",
+    "cache_key",
+    "default_cache_dir",
+    "eye_compliance",
+    "eye_mesh",
+    "reference_loads",
+    "winkler_coefficient",
+]

@@ -38,7 +38,9 @@ COMMON_FIT = (4.4086e-5, 4.0, 6.804)  # F_5/2 ~ a (b - Hs)^c for Hs < b
 
 def gt_integral(n: float, Hs: float) -> float:
     """F_n(Hs) by adaptive quadrature of its definition (reference values)."""
-    value, _ = quad(lambda s: (s - Hs) ** n * math.exp(-0.5 * s * s), Hs, math.inf, epsabs=0.0, epsrel=1e-12, limit=200)
+    value, _ = quad(
+        lambda s: (s - Hs) ** n * math.exp(-0.5 * s * s), Hs, math.inf, epsabs=0.0, epsrel=1e-12, limit=200
+    )
     return value / math.sqrt(2 * math.pi)
 
 
@@ -127,8 +129,12 @@ class GreenwoodTripp:
     method: str = "exact"
 
     def __post_init__(self) -> None:
-        for name, allowed in (("sigma", "> 0 m"), ("eta_beta_sigma", "> 0"), ("sigma_over_beta", "> 0"),
-                              ("modulus", "> 0 Pa")):
+        for name, allowed in (
+            ("sigma", "> 0 m"),
+            ("eta_beta_sigma", "> 0"),
+            ("sigma_over_beta", "> 0"),
+            ("modulus", "> 0 Pa"),
+        ):
             if not getattr(self, name) > 0:
                 raise out_of_range(name, getattr(self, name), allowed)
         if not 0 <= self.friction < 2:

@@ -142,13 +142,24 @@ class ElasticFilm:
             reduced pressure's bound (the Newton steps stay below it).
     """
 
-    def __init__(self, operator: MidpointOperator, P: fem.Function, W: fem.Function, lower: np.ndarray,
-                 derivatives, shapes, options: dict | None = None, pressure_map=None,
-                 q_limit: float | None = None):
+    def __init__(
+        self,
+        operator: MidpointOperator,
+        P: fem.Function,
+        W: fem.Function,
+        lower: np.ndarray,
+        derivatives,
+        shapes,
+        options: dict | None = None,
+        pressure_map=None,
+        q_limit: float | None = None,
+    ):
         self.op, self.P, self.W = operator, P, W
         self.pressure_map, self.q_limit = pressure_map, q_limit
         self.comm = MPI.COMM_SELF
-        self.expression = fem.Expression(ufl.as_vector(self._midpoint_expressions(operator, derivatives)), MIDPOINT)
+        self.expression = fem.Expression(
+            ufl.as_vector(self._midpoint_expressions(operator, derivatives)), MIDPOINT
+        )
         Phi, gains = shapes
         Phi, self.gains = scipy.sparse.csr_matrix(Phi), np.asarray(gains, float)
         op = operator
@@ -157,8 +168,9 @@ class ElasticFilm:
         cells = op.cells
         c3 = np.repeat(cells, 3)
         self.areas = op.nodal_areas  # lumped nodal areas a_i (/ R^2)
-        average = scipy.sparse.csr_matrix((np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())),
-                                          shape=(len(cells), n))  # midpoint value of a P1 field
+        average = scipy.sparse.csr_matrix(
+            (np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())), shape=(len(cells), n)
+        )  # midpoint value of a P1 field
         slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
         self.average_Phi = (average @ Phi).tocsr()  # dW_K/dq
         self.slope_Phi = (slope @ Phi).tocsr()  # dW'_K/dq
@@ -179,7 +191,9 @@ class ElasticFilm:
             self._gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
             self._border = self._border_map(op, n)
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
-        ones = scipy.sparse.csr_matrix((np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells)))
+        ones = scipy.sparse.csr_matrix(
+            (np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells))
+        )
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
         absolute = lambda M: abs(M).tocsr()  # noqa: E731
         Pq = ones @ (absolute(self.average_Phi) + absolute(self.slope_Phi))
@@ -188,10 +202,14 @@ class ElasticFilm:
         pattern.sum_duplicates()
         pattern.sort_indices()
         self.N = n + m
-        self.indptr, self.indices = pattern.indptr.astype(PETSc.IntType), pattern.indices.astype(PETSc.IntType)
+        self.indptr, self.indices = (
+            pattern.indptr.astype(PETSc.IntType),
+            pattern.indices.astype(PETSc.IntType),
+        )
         self.keys = np.repeat(np.arange(self.N, dtype=np.int64), np.diff(self.indptr)) * self.N + self.indices
-        self.A = PETSc.Mat().createAIJ((self.N, self.N), csr=(self.indptr, self.indices, np.zeros(len(self.indices))),
-                                       comm=self.comm)
+        self.A = PETSc.Mat().createAIJ(
+            (self.N, self.N), csr=(self.indptr, self.indices, np.zeros(len(self.indices))), comm=self.comm
+        )
         self.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         self.x, self.r = self.A.createVecs()
         self.lower_vec, self.upper_vec = self.A.createVecs()
@@ -210,7 +228,9 @@ class ElasticFilm:
         self.lu.limit = self._limit
         self._shell = None
         if isinstance(self.lu, SchurLU):  # the reduced-space SNES then needs the blocks only
-            self._shell = PETSc.Mat().createPython(((self.N, self.N), (self.N, self.N)), _ReducedShell(), comm=self.comm)
+            self._shell = PETSc.Mat().createPython(
+                ((self.N, self.N), (self.N, self.N)), _ReducedShell(), comm=self.comm
+            )
             self._shell.setUp()
             self.snes.setJacobian(self._blocks_only, self._shell)
         self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
@@ -335,17 +355,23 @@ class ElasticFilm:
         P = self.P.x.array[:n].copy()
         P[op.bc_dofs] = op.bc_values[op.bc_dofs]  # the residual's lifting uses the Dirichlet values
         P_cells = P[op.dofs]  # (cell, 3)
-        local = (k[:, 0, None] * np.einsum("cij,cj->ci", op.local_theta, P_cells)
-                 + k[:, 1, None] * np.einsum("cij,cj->ci", op.local_z, P_cells)
-                 + (k[:, 2] * op.weight / 3.0)[:, None])  # d(A_K P_K + l_K)/dH_K at each vertex
+        local = (
+            k[:, 0, None] * np.einsum("cij,cj->ci", op.local_theta, P_cells)
+            + k[:, 1, None] * np.einsum("cij,cj->ci", op.local_z, P_cells)
+            + (k[:, 2] * op.weight / 3.0)[:, None]
+        )  # d(A_K P_K + l_K)/dH_K at each vertex
         n_cells = len(op.cells)
         slopes = np.repeat(k[:, 3] * op.weight / 3.0, 3)
         if self.dense:  # the same blocks as dense arrays (module docstring)
             mapping, indices, indptr = self._border
-            M = scipy.sparse.csr_matrix((mapping @ np.concatenate([local.ravel(), slopes]), indices, indptr), shape=(n, n))
+            M = scipy.sparse.csr_matrix(
+                (mapping @ np.concatenate([local.ravel(), slopes]), indices, indptr), shape=(n, n)
+            )
             J_Pq = self.interior[:, None] * (M @ self.Phi)
             touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
-            J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (k[touching, 5, None] * self._average_Phi[touching])
+            J_qq = np.identity(self.m) - self._gPhiT_cells[:, touching] @ (
+                k[touching, 5, None] * self._average_Phi[touching]
+            )
             J_qP = self._J_qP if self.slope is None else self._J_qP * self.slope[None, :]
         else:
             rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
@@ -377,8 +403,11 @@ class ElasticFilm:
         structure (a sort and a search of every entry cost more than the rest of the Jacobian)."""
         row, col = J.row, J.col
         cached = self._positions
-        if cached is None or len(cached[0]) != len(row) or not (np.array_equal(cached[0], row)
-                                                                and np.array_equal(cached[1], col)):
+        if (
+            cached is None
+            or len(cached[0]) != len(row)
+            or not (np.array_equal(cached[0], row) and np.array_equal(cached[1], col))
+        ):
             position = np.searchsorted(self.keys, row.astype(np.int64) * self.N + col)
             self._positions = cached = (row.copy(), col.copy(), position)
         return np.bincount(cached[2], weights=J.data, minlength=len(self.indices))
@@ -445,8 +474,11 @@ class ElasticFilm:
         self.q = x[n:].copy()
         violation = float(np.max(self.lower - x[:n], initial=0.0))
         if violation > 1e-8 * max(1.0, float(np.max(np.abs(x[:n]), initial=0.0))):
-            raise FilmNotConverged(f"elastic film solve violated the cavitation bound by {violation:.3g}", reason,
-                                   self.iterations)
+            raise FilmNotConverged(
+                f"elastic film solve violated the cavitation bound by {violation:.3g}",
+                reason,
+                self.iterations,
+            )
         return self.iterations
 
     def _run(self, snes: PETSc.SNES, x0: np.ndarray) -> int:
@@ -472,7 +504,9 @@ class ElasticFilm:
         state of the last residual evaluation, which ``solve`` leaves at the solution)."""
         x, r, n = self._state, self._r, self.n
         scale = max(1.0, float(np.max(np.abs(r[:n]), initial=0.0)))
-        active = (x[:n] <= self.lower + 1e-12 * max(1.0, float(np.max(np.abs(x[:n]))))) & (r[:n] > 1e-10 * scale)
+        active = (x[:n] <= self.lower + 1e-12 * max(1.0, float(np.max(np.abs(x[:n]))))) & (
+            r[:n] > 1e-10 * scale
+        )
         keep = np.concatenate([~active, np.ones(self.m, dtype=bool)])
         return PETSc.IS().createGeneral(np.flatnonzero(keep).astype(PETSc.IntType), comm=self.comm)
 
@@ -557,13 +591,17 @@ class SchurLU:
         op, n = film.op, film.n
         # the film block's pattern is the operator's (A(H) of ElasticFilm.residual)
         self._indptr, self._indices = op.indptr.astype(PETSc.IntType), op.indices.astype(PETSc.IntType)
-        self.K = PETSc.Mat().createAIJ((n, n), csr=(self._indptr, self._indices, np.zeros(len(op.indices))),
-                                       comm=film.comm)
+        self.K = PETSc.Mat().createAIJ(
+            (n, n), csr=(self._indptr, self._indices, np.zeros(len(op.indices))), comm=film.comm
+        )
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(film.comm)
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")
-        self.b, self.x = PETSc.Vec().createSeq(film.N, comm=film.comm), PETSc.Vec().createSeq(film.N, comm=film.comm)
+        self.b, self.x = (
+            PETSc.Vec().createSeq(film.N, comm=film.comm),
+            PETSc.Vec().createSeq(film.N, comm=film.comm),
+        )
         self._bP, self._xP = self.K.createVecs()
         self.inactive: PETSc.IS | None = None
         self.local: np.ndarray | None = None
@@ -662,7 +700,10 @@ class SchurLU:
             h += correction
             h_next = float(np.linalg.norm(w))
             for i in range(k):  # the earlier rotations
-                h[i], h[i + 1] = cosines[i] * h[i] + sines[i] * h[i + 1], -sines[i] * h[i] + cosines[i] * h[i + 1]
+                h[i], h[i + 1] = (
+                    cosines[i] * h[i] + sines[i] * h[i + 1],
+                    -sines[i] * h[i] + cosines[i] * h[i + 1],
+                )
             radius = math.hypot(h[k], h_next)
             cosines[k], sines[k] = (h[k] / radius, h_next / radius) if radius > 0.0 else (1.0, 0.0)
             h[k] = radius
@@ -671,7 +712,9 @@ class SchurLU:
             rhs[k] *= cosines[k]
             if abs(rhs[k + 1]) <= self.KRYLOV_TOLERANCE * norm or h_next == 0.0:
                 self.n_krylov += k + 1
-                y = scipy.linalg.solve_triangular(triangle[: k + 1, : k + 1], rhs[: k + 1], check_finite=False)
+                y = scipy.linalg.solve_triangular(
+                    triangle[: k + 1, : k + 1], rhs[: k + 1], check_finite=False
+                )
                 return self._schur_lu_solve(y @ basis[: k + 1])
             basis[k + 1] = w / h_next
         self.n_krylov += k_max
@@ -780,9 +823,22 @@ class _DampedLU:
         self.ksp.destroy()
 
 
-def bushing_model(kind: str, *, radius: float, width: float, bushing_thickness: float, eye_outer_radius: float,
-                  E_eye: float, nu_eye: float, E_bushing: float, nu_bushing: float, shank_half_angle_deg: float,
-                  modes: int, comm: MPI.Comm, shank_angle_deg: float = 180.0):
+def bushing_model(
+    kind: str,
+    *,
+    radius: float,
+    width: float,
+    bushing_thickness: float,
+    eye_outer_radius: float,
+    E_eye: float,
+    nu_eye: float,
+    E_bushing: float,
+    nu_bushing: float,
+    shank_half_angle_deg: float,
+    modes: int,
+    comm: MPI.Comm,
+    shank_angle_deg: float = 180.0,
+):
     """The bushing's compliance for ``FilmModel(elastic=...)``: None (rigid), a WinklerLayer, or the
     finite-element eye (solver.film.compliance, from its disk cache when built before) reduced to
     ``modes`` modes, clamped around ``shank_angle_deg`` (the engine: 180, the shank opposite the top
@@ -793,13 +849,24 @@ def bushing_model(kind: str, *, radius: float, width: float, bushing_thickness: 
         return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
     if kind != "fe":
         raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
-    geometry = EyeGeometry(bore_radius=radius, width=width, bushing_thickness=bushing_thickness,
-                           eye_outer_radius=eye_outer_radius, E_eye=E_eye, nu_eye=nu_eye, E_bushing=E_bushing,
-                           nu_bushing=nu_bushing, shank_angle_deg=shank_angle_deg,
-                           shank_half_angle_deg=shank_half_angle_deg)
+    geometry = EyeGeometry(
+        bore_radius=radius,
+        width=width,
+        bushing_thickness=bushing_thickness,
+        eye_outer_radius=eye_outer_radius,
+        E_eye=E_eye,
+        nu_eye=nu_eye,
+        E_bushing=E_bushing,
+        nu_bushing=nu_bushing,
+        shank_angle_deg=shank_angle_deg,
+        shank_half_angle_deg=shank_half_angle_deg,
+    )
     compliance = eye_compliance(geometry, comm=comm)
     loads = reference_loads(compliance)
     errors = compliance.truncation_error(modes, np.column_stack(list(loads.values())))
-    log.info("eye compliance with %d modes: truncation error %s", modes,
-             ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)))
+    log.info(
+        "eye compliance with %d modes: truncation error %s",
+        modes,
+        ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)),
+    )
     return ModalCompliance(compliance, modes)

@@ -49,8 +49,12 @@ log = logging.getLogger(__name__)
 
 #: PETSc options of the coupled semismooth Newton
 OPTIONS: dict[str, str | float | int] = {
-    "snes_type": "newtonls", "snes_linesearch_type": "basic", "snes_max_it": 60,
-    "snes_divergence_tolerance": -1.0, "ksp_type": "preonly", "pc_type": "python",
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_max_it": 60,
+    "snes_divergence_tolerance": -1.0,
+    "ksp_type": "preonly",
+    "pc_type": "python",
 }
 
 
@@ -81,8 +85,10 @@ class MidpointJFO:
         # the coefficients and the operator's midpoint integrals (the Couette torques), evaluated together
         self.values_expression = fem.Expression(ufl.as_vector(values + op.integrands), MIDPOINT)
         self.local_couette = -(op.weight / 3.0)[:, None, None] * np.repeat(op.g_theta[:, :, None], 3, axis=2)
-        self.T_C = scipy.sparse.csr_matrix((self.local_couette.ravel(), (op.positions.ravel(), np.repeat(op.cells, 9))),
-                                           shape=(len(op.indices), len(op.cells)))
+        self.T_C = scipy.sparse.csr_matrix(
+            (self.local_couette.ravel(), (op.positions.ravel(), np.repeat(op.cells, 9))),
+            shape=(len(op.indices), len(op.cells)),
+        )
         self.rows = np.repeat(np.arange(n), np.diff(op.indptr))
         keys = self.rows.astype(np.int64) * n + op.indices
         self.transpose = np.searchsorted(keys, op.indices.astype(np.int64) * n + self.rows)
@@ -98,7 +104,12 @@ class MidpointJFO:
         MidpointOperator.evaluate gives them)."""
         op = self.op
         c = self.values_expression.eval(op.cells)
-        matrices = op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], self.T_C @ c[:, 2], op.T_f @ c[:, 3], op.T_f @ c[:, 4]
+        matrices = (
+            op.T_theta @ c[:, 0] + op.T_z @ c[:, 1],
+            self.T_C @ c[:, 2],
+            op.T_f @ c[:, 3],
+            op.T_f @ c[:, 4],
+        )
         return matrices, op.weight @ c[:, 5:]
 
     def upwinded(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -134,8 +145,9 @@ class MidpointJFO:
         bases = np.empty((5,) + plus.shape)
         bases[0] = np.einsum("cij,cj->ci", op.local_theta, plus)
         bases[1] = np.einsum("cij,cj->ci", op.local_z, plus)
-        bases[2] = (np.einsum("cij,cj->ci", couette, theta)
-                    - np.einsum("cij,cij->ci", diffusion, theta[:, None, :] - theta[:, :, None]))
+        bases[2] = np.einsum("cij,cj->ci", couette, theta) - np.einsum(
+            "cij,cij->ci", diffusion, theta[:, None, :] - theta[:, :, None]
+        )
         bases[3] = 0.0 if rate is None else third * (theta - rate[1][op.dofs]) / rate[0]
         bases[4] = third * theta
         return bases
@@ -170,11 +182,26 @@ class ElasticJFOFilm(ElasticFilm):
         prescribed: name -> (dofs, value of u).
     """
 
-    def __init__(self, operator, P, W, lower, derivatives, shapes, coefficients, W_variable, prescribed,
-                 options=None, pressure_map=None, q_limit=None):
+    def __init__(
+        self,
+        operator,
+        P,
+        W,
+        lower,
+        derivatives,
+        shapes,
+        coefficients,
+        W_variable,
+        prescribed,
+        options=None,
+        pressure_map=None,
+        q_limit=None,
+    ):
         super().__init__(operator, P, W, lower, derivatives, shapes, options, pressure_map, q_limit)
         op, n = self.op, self.n
-        self.prescribed = {name: (np.asarray(dofs, np.int32), float(value)) for name, (dofs, value) in prescribed.items()}
+        self.prescribed = {
+            name: (np.asarray(dofs, np.int32), float(value)) for name, (dofs, value) in prescribed.items()
+        }
         self.u_bc = np.zeros(n)
         is_bc = np.zeros(n, dtype=bool)
         for dofs, value in self.prescribed.values():
@@ -184,7 +211,9 @@ class ElasticJFOFilm(ElasticFilm):
         self.mid = MidpointJFO(op, coefficients, [W_variable], is_bc)  # values, then d/dW at the midpoints
         self.u = np.ones(n)  # the full film: its first step is the Reynolds solution without cavitation
         self.u[is_bc] = self.u_bc[is_bc]
-        self.rate: tuple[float, np.ndarray] | None = None  # (dT, theta_ref) of the film fraction; None: quasi-static
+        self.rate: tuple[float, np.ndarray] | None = (
+            None  # (dT, theta_ref) of the film fraction; None: quasi-static
+        )
         self.jfo_snes = configured_snes(self.comm, "ehdjfo", {**OPTIONS, **(options or {})})
         self.jfo_snes.setFunction(self._residual, self.r)
         self.jfo_snes.setJacobian(self._jfo_jacobian, self.A)
@@ -213,7 +242,9 @@ class ElasticJFOFilm(ElasticFilm):
         self.k = self.expression.eval(op.cells)  # the asperity pressure and its slope (columns 4, 5)
         c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
         self.c = c
-        K = scipy.sparse.csr_matrix((op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n))
+        K = scipy.sparse.csr_matrix(
+            (op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n)
+        )
         upwinded, self._d, self._pick = self.mid.upwinded(self.mid.T_C @ c[:, 2])
         T = scipy.sparse.csr_matrix((upwinded, op.indices, op.indptr), shape=(n, n))
         m, mdot = op.T_f @ c[:, 3], op.T_f @ c[:, 4]
@@ -248,11 +279,15 @@ class ElasticJFOFilm(ElasticFilm):
         u = self._state[:n]
         positive = u > 0.0
         Ts = self._T + scipy.sparse.diags(self._storage)
-        J_uu = (self._K @ scipy.sparse.diags(positive.astype(float)) + Ts @ scipy.sparse.diags((~positive).astype(float)))
+        J_uu = self._K @ scipy.sparse.diags(positive.astype(float)) + Ts @ scipy.sparse.diags(
+            (~positive).astype(float)
+        )
         keep = scipy.sparse.diags((~self.is_bc).astype(float))
         J_uu = (keep @ J_uu + scipy.sparse.diags(self.is_bc.astype(float))).tocsr()
         # d R_u / d H_K at the vertices of each cell
-        local = self.mid.local_derivative(c[:, 5:10], self.mid.local_bases(u, (self._d, self._pick), self.rate))
+        local = self.mid.local_derivative(
+            c[:, 5:10], self.mid.local_bases(u, (self._d, self._pick), self.rate)
+        )
         rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
         dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
         J_uq = keep @ (dH @ self.average_Phi)
@@ -266,6 +301,7 @@ class ElasticJFOFilm(ElasticFilm):
     def _converged(self, snes, iteration: int, norms) -> int:
         """As solver.film.jfo.JFOSolver: a step that kept the partition with the residual at round-off
         (the coupled residual is not piecewise linear in q, so its size is checked too)."""
+
         def kept() -> bool:
             x = snes.getSolution().getArray(readonly=True)
             return np.array_equal(x[: self.n] > 0.0, self._partition) and norms[2] <= 1e-10 * self._scale
@@ -290,7 +326,9 @@ class ElasticJFOFilm(ElasticFilm):
         r0 = self.residual(x0)
         # the flux scale: the film's residual at the full film with zero gauge pressure inside
         reference = np.concatenate([np.where(self.is_bc, self.u_bc, 0.0), self.q])
-        self._scale = max(float(np.linalg.norm(self.residual(reference)[:n])), float(np.linalg.norm(r0[n:])), 1e-12)
+        self._scale = max(
+            float(np.linalg.norm(self.residual(reference)[:n])), float(np.linalg.norm(r0[n:])), 1e-12
+        )
         self._partition = None
         self.x.setArray(x0)
         self.jfo_snes.solve(None, self.x)
@@ -318,9 +356,17 @@ class ElasticJFOFilm(ElasticFilm):
         """The film of the last solve as solver.film.jfo reports it (dimensionless, every dof)."""
         u = self.u
         theta = 1.0 + np.minimum(u, 0.0)
-        outflow = {name: -float(np.sum(self._unconstrained[dofs])) for name, (dofs, _) in self.prescribed.items()}
-        return JFOSolution(pressure=np.maximum(u, 0.0), theta=theta, content=self._m * theta,
-                           load=float(self.areas @ np.maximum(u, 0.0)), outflow=outflow, iterations=self.iterations)
+        outflow = {
+            name: -float(np.sum(self._unconstrained[dofs])) for name, (dofs, _) in self.prescribed.items()
+        }
+        return JFOSolution(
+            pressure=np.maximum(u, 0.0),
+            theta=theta,
+            content=self._m * theta,
+            load=float(self.areas @ np.maximum(u, 0.0)),
+            outflow=outflow,
+            iterations=self.iterations,
+        )
 
     # -- sensitivities ---------------------------------------------------------------------------
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:

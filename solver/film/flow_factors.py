@@ -34,20 +34,45 @@ from solver.errors import out_of_range
 
 GAMMAS = (1 / 9, 1 / 6, 1 / 3, 1.0, 3.0, 6.0, 9.0)
 # Patir & Cheng 1978, Table 1: gamma -> (C, r, lowest Hs of the fit)
-PRESSURE_FLOW = {1 / 9: (1.48, 0.42, 1.0), 1 / 6: (1.38, 0.42, 1.0), 1 / 3: (1.18, 0.42, 0.75),
-                 1.0: (0.90, 0.56, 0.5), 3.0: (0.225, 1.5, 0.5), 6.0: (0.520, 1.5, 0.5), 9.0: (0.870, 1.5, 0.5)}
+PRESSURE_FLOW = {
+    1 / 9: (1.48, 0.42, 1.0),
+    1 / 6: (1.38, 0.42, 1.0),
+    1 / 3: (1.18, 0.42, 0.75),
+    1.0: (0.90, 0.56, 0.5),
+    3.0: (0.225, 1.5, 0.5),
+    6.0: (0.520, 1.5, 0.5),
+    9.0: (0.870, 1.5, 0.5),
+}
 # Patir & Cheng 1979, Table 1: gamma -> (A1, alpha1, alpha2, alpha3, A2) for Phi_s
-SHEAR_FLOW = {1 / 9: (2.046, 1.12, 0.78, 0.03, 1.856), 1 / 6: (1.962, 1.08, 0.77, 0.03, 1.754),
-              1 / 3: (1.858, 1.01, 0.76, 0.03, 1.561), 1.0: (1.899, 0.98, 0.92, 0.05, 1.126),
-              3.0: (1.560, 0.85, 1.13, 0.08, 0.556), 6.0: (1.290, 0.62, 1.09, 0.08, 0.388),
-              9.0: (1.011, 0.54, 1.07, 0.08, 0.295)}
+SHEAR_FLOW = {
+    1 / 9: (2.046, 1.12, 0.78, 0.03, 1.856),
+    1 / 6: (1.962, 1.08, 0.77, 0.03, 1.754),
+    1 / 3: (1.858, 1.01, 0.76, 0.03, 1.561),
+    1.0: (1.899, 0.98, 0.92, 0.05, 1.126),
+    3.0: (1.560, 0.85, 1.13, 0.08, 0.556),
+    6.0: (1.290, 0.62, 1.09, 0.08, 0.388),
+    9.0: (1.011, 0.54, 1.07, 0.08, 0.295),
+}
 # Patir & Cheng 1979, Table 2: gamma -> (A3, alpha4, alpha5, alpha6) for Phi_fs (Hs <= 7, else 0)
-SHEAR_STRESS = {1 / 9: (14.1, 2.45, 2.30, 0.10), 1 / 6: (13.4, 2.42, 2.30, 0.10), 1 / 3: (12.3, 2.32, 2.30, 0.10),
-                1.0: (11.1, 2.31, 2.38, 0.11), 3.0: (9.8, 2.25, 2.80, 0.18), 6.0: (10.1, 2.25, 2.90, 0.18),
-                9.0: (8.7, 2.15, 2.97, 0.18)}
+SHEAR_STRESS = {
+    1 / 9: (14.1, 2.45, 2.30, 0.10),
+    1 / 6: (13.4, 2.42, 2.30, 0.10),
+    1 / 3: (12.3, 2.32, 2.30, 0.10),
+    1.0: (11.1, 2.31, 2.38, 0.11),
+    3.0: (9.8, 2.25, 2.80, 0.18),
+    6.0: (10.1, 2.25, 2.90, 0.18),
+    9.0: (8.7, 2.15, 2.97, 0.18),
+}
 # Patir & Cheng 1979, Table 3: gamma -> (D, s) for Phi_fp = 1 - D exp(-s Hs) (Hs > 0.5)
-PRESSURE_SHEAR = {1 / 9: (1.51, 0.52), 1 / 6: (1.51, 0.54), 1 / 3: (1.47, 0.58), 1.0: (1.40, 0.66),
-                  3.0: (0.98, 0.79), 6.0: (0.97, 0.91), 9.0: (0.73, 0.91)}
+PRESSURE_SHEAR = {
+    1 / 9: (1.51, 0.52),
+    1 / 6: (1.51, 0.54),
+    1 / 3: (1.47, 0.58),
+    1.0: (1.40, 0.66),
+    3.0: (0.98, 0.79),
+    6.0: (0.97, 0.91),
+    9.0: (0.73, 0.91),
+}
 H_MIN = 0.5  # lowest Hs of the gamma = 1 fits; below it the factors are held
 PHI_F_EPSILON = 1 / 300  # Patir & Cheng 1979: cut-off of the gap distribution in Phi_f (Hs <= 3)
 CONTACT_FACTOR_H = 3.0  # Wu & Zheng: phi_c = 1 for Hs >= 3
@@ -159,7 +184,9 @@ def mean_gap(Hs: Any, mod: Any = np) -> Any:
     low = np.minimum(low, CONTACT_FACTOR_H) if mod is np else mod.min_value(low, CONTACT_FACTOR_H)
     half = (CONTACT_FACTOR_H - low) / 2
     nodes, weights = _MEAN_GAP_RULE
-    deficit = sum(float(w) * (1.0 - contact_factor(low + half * (1.0 + float(x)), mod)) for x, w in zip(nodes, weights))
+    deficit = sum(
+        float(w) * (1.0 - contact_factor(low + half * (1.0 + float(x)), mod)) for x, w in zip(nodes, weights)
+    )
     # below Hs = 0 phi_c is held at phi_c(0): the mean gap goes on with that slope
     below = _clamp(-Hs, 0.0, mod)
     return Hs + below * (1.0 - contact_factor(0.0 * Hs, mod)) + half * deficit
@@ -180,8 +207,15 @@ def shear_stress_phi_f(Hs: Any, mod: Any = np) -> Any:
     series = 1.0 + 1.0 / H**2 + (27.0 / 11.0) / H**4
     z = H / 3.0
     z_high = mod.max_value(z, 1.0 + 1e-12)
-    high = 35 / 32 * z_high * ((1 - z_high**2) ** 3 * mod.ln((z_high + 1) / (z_high - 1))
-                               + z_high / 15 * (66 + z_high**2 * (30 * z_high**2 - 80)))
+    high = (
+        35
+        / 32
+        * z_high
+        * (
+            (1 - z_high**2) ** 3 * mod.ln((z_high + 1) / (z_high - 1))
+            + z_high / 15 * (66 + z_high**2 * (30 * z_high**2 - 80))
+        )
+    )
     poly = -55 + z * (132 + z * (345 + z * (-160 + z * (-405 + z * (60 + 147 * z)))))
     low = 35 / 32 * z * ((1 - z**2) ** 3 * mod.ln((z + 1) / PHI_F_EPSILON) + poly / 60)
     return mod.conditional(mod.gt(H, 30.0), series, mod.conditional(mod.gt(H, 3.0), high, low))
@@ -272,7 +306,9 @@ class PatirCheng:
 
     def shear_flow_slope(self, Hs):
         """d phi_s / d Hs (numpy), what the forms get from ufl.diff of shear_flow (solver.film.reynolds)."""
-        return self.variance_ratio * _interpolated(_shear_flow_slope_tabulated, self.gamma, np.asarray(Hs, float), np)
+        return self.variance_ratio * _interpolated(
+            _shear_flow_slope_tabulated, self.gamma, np.asarray(Hs, float), np
+        )
 
     def contact_factor(self, Hs, mod=np):
         return contact_factor(Hs, mod)
@@ -282,9 +318,11 @@ class PatirCheng:
 
     def shear_stress_factors(self, Hs, mod=np):
         """(Phi_f, Phi_fs, Phi_fp); Phi_fs carries the variance ratio like phi_s."""
-        return (shear_stress_phi_f(Hs, mod),
-                self.variance_ratio * _interpolated(_shear_stress_fs_tabulated, self.gamma, Hs, mod),
-                self.pressure_shear_factor(Hs, mod))
+        return (
+            shear_stress_phi_f(Hs, mod),
+            self.variance_ratio * _interpolated(_shear_stress_fs_tabulated, self.gamma, Hs, mod),
+            self.pressure_shear_factor(Hs, mod),
+        )
 
     def pressure_shear_factor(self, Hs, mod=np):
         """Phi_fp alone (the third of shear_stress_factors)."""

@@ -145,9 +145,20 @@ class JFOSolver:
         rate: dH/dT (UFL scalar): the rate form of the storage (module docstring); None: content form.
     """
 
-    def __init__(self, V: fem.FunctionSpace, H, U, prescribed: dict[str, tuple[np.ndarray, float]], *,
-                 D=None, f=None, quadrature_degree: int | None = None, options: dict | None = None,
-                 flux=None, rate=None):
+    def __init__(
+        self,
+        V: fem.FunctionSpace,
+        H,
+        U,
+        prescribed: dict[str, tuple[np.ndarray, float]],
+        *,
+        D=None,
+        f=None,
+        quadrature_degree: int | None = None,
+        options: dict | None = None,
+        flux=None,
+        rate=None,
+    ):
         self.V = V
         self.comm = V.mesh.comm
         metadata = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
@@ -173,8 +184,10 @@ class JFOSolver:
         self._areas = areas.getArray(readonly=True).copy()
         areas.destroy()
         self.n_owned = V.dofmap.index_map.size_local
-        self.prescribed = {name: (np.asarray(dofs, dtype=np.int32), float(value))
-                           for name, (dofs, value) in prescribed.items()}
+        self.prescribed = {
+            name: (np.asarray(dofs, dtype=np.int32), float(value))
+            for name, (dofs, value) in prescribed.items()
+        }
         bc_dofs = [d[d < self.n_owned] for d, _ in self.prescribed.values()]
         self._bc_local = np.unique(np.concatenate(bc_dofs)) if bc_dofs else np.zeros(0, dtype=np.int32)
         self._bc_values = np.zeros(self.n_owned)
@@ -187,9 +200,16 @@ class JFOSolver:
         self.mdot = self.m.duplicate() if rate is not None else None
         self.b = self.m.duplicate()  # -c_old/dT - F
         self.r = self.m.duplicate()
-        self._theta_vec, self._pressure_vec, self._mask = self.m.duplicate(), self.m.duplicate(), self.m.duplicate()
-        merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": "mumps" if self.comm.size > 1 else "petsc",
-                  **(options or {})}
+        self._theta_vec, self._pressure_vec, self._mask = (
+            self.m.duplicate(),
+            self.m.duplicate(),
+            self.m.duplicate(),
+        )
+        merged = {
+            **DEFAULT_OPTIONS,
+            "pc_factor_mat_solver_type": "mumps" if self.comm.size > 1 else "petsc",
+            **(options or {}),
+        }
         self.snes = configured_snes(self.comm, "jfo", merged)
         self.snes.setFunction(self._residual, self.r)
         self.update()
@@ -220,8 +240,14 @@ class JFOSolver:
             fem_petsc.assemble_vector(vec, form)
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
-    def set_operator(self, K_values: np.ndarray, C_values: np.ndarray, m: np.ndarray, mdot: np.ndarray | None,
-                     limited: LimitedTransport | None = None) -> None:
+    def set_operator(
+        self,
+        K_values: np.ndarray,
+        C_values: np.ndarray,
+        m: np.ndarray,
+        mdot: np.ndarray | None,
+        limited: LimitedTransport | None = None,
+    ) -> None:
         """``update`` from values computed elsewhere (serial): K's and the Couette matrix's values in
         their CSR layout (``csr_layout``; C before upwinding), m and mdot at the dofs. The bearing film
         computes them at the cell midpoints (solver.film.ehd_jfo.MidpointJFO), the forms' own rule."""
@@ -288,7 +314,9 @@ class JFOSolver:
         self._unconstrained(x, r)
         if len(self._bc_local):
             values = r.getArray()
-            values[self._bc_local] = x.getArray(readonly=True)[self._bc_local] - self._bc_values[self._bc_local]
+            values[self._bc_local] = (
+                x.getArray(readonly=True)[self._bc_local] - self._bc_values[self._bc_local]
+            )
             r.setArray(values)
 
     def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
@@ -309,6 +337,7 @@ class JFOSolver:
         computed with: r is linear on that partition, so the step solved r = 0 exactly (up to the
         LU's round-off, which a residual check against the size of the terms bounds). A warm start
         that already solves the problem (|r| <= 1e-12 of the flux scale) passes at iteration 0."""
+
         def kept() -> bool:
             x = snes.getSolution()
             same = bool(np.array_equal(x.getArray(readonly=True) > 0.0, self._partition))
@@ -328,8 +357,13 @@ class JFOSolver:
         return size
 
     # -- solve ----------------------------------------------------------------------------------
-    def solve(self, dT: float | None = None, content_old: np.ndarray | None = None,
-              start: np.ndarray | None = None, theta_old: np.ndarray | None = None) -> JFOSolution:
+    def solve(
+        self,
+        dT: float | None = None,
+        content_old: np.ndarray | None = None,
+        start: np.ndarray | None = None,
+        theta_old: np.ndarray | None = None,
+    ) -> JFOSolution:
         """Solve one (implicit Euler) step, or the steady problem when ``dT`` is None.
 
         Args:
@@ -344,7 +378,9 @@ class JFOSolver:
             FilmNotConverged: SNES stopped without convergence.
         """
         if self.mdot is None and theta_old is not None or self.mdot is not None and content_old is not None:
-            raise ValueError("JFOSolver.solve: theta_old with the rate form, content_old with the content form")
+            raise ValueError(
+                "JFOSolver.solve: theta_old with the rate form, content_old with the content form"
+            )
         if self._Ts is not None:  # (kept after a solve for its sensitivities)
             self._Ts.destroy()
         self._Ts = self._set_history(dT, content_old if self.mdot is None else theta_old)
@@ -374,14 +410,20 @@ class JFOSolver:
         self.pressure.x.array[:] = np.maximum(u, 0.0)
         self.theta.x.array[:] = 1.0 + np.minimum(u, 0.0)
         r = self.r.getArray(readonly=True)
-        outflow = {name: -self.comm.allreduce(float(np.sum(r[dofs[dofs < self.n_owned]])), op=MPI.SUM)
-                   for name, (dofs, _) in self.prescribed.items()}
+        outflow = {
+            name: -self.comm.allreduce(float(np.sum(r[dofs[dofs < self.n_owned]])), op=MPI.SUM)
+            for name, (dofs, _) in self.prescribed.items()
+        }
         n = self.n_owned
         theta = self.theta.x.array[:n].copy()
-        return JFOSolution(pressure=self.pressure.x.array[:n].copy(), theta=theta,
-                           content=self.m.getArray(readonly=True) * theta,
-                           load=self.comm.allreduce(float(self._areas @ self.pressure.x.array[:n]), op=MPI.SUM),
-                           outflow=outflow, iterations=iterations)
+        return JFOSolution(
+            pressure=self.pressure.x.array[:n].copy(),
+            theta=theta,
+            content=self.m.getArray(readonly=True) * theta,
+            load=self.comm.allreduce(float(self._areas @ self.pressure.x.array[:n]), op=MPI.SUM),
+            outflow=outflow,
+            iterations=iterations,
+        )
 
     # -- sensitivities --------------------------------------------------------------------------
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
@@ -405,8 +447,21 @@ class JFOSolver:
 
     # -- lifetime -------------------------------------------------------------------------------
     def close(self) -> None:
-        for obj in (self.snes, self.K, self.T, self.J, self._work, self.m, self.b, self.r, self._theta_vec,
-                    self._pressure_vec, self._mask, self.mdot, self._Ts):
+        for obj in (
+            self.snes,
+            self.K,
+            self.T,
+            self.J,
+            self._work,
+            self.m,
+            self.b,
+            self.r,
+            self._theta_vec,
+            self._pressure_vec,
+            self._mask,
+            self.mdot,
+            self._Ts,
+        ):
             if obj is not None:
                 obj.destroy()
 

@@ -58,7 +58,9 @@ class SupplyHole:
     def check(self, width: float, half: bool) -> None:
         """Raise InputError unless the hole fits on a film of width ``width`` (/ R)."""
         if not 0 < self.diameter < min(width, math.pi):
-            raise out_of_range("supply hole diameter / radius", self.diameter, f"(0, {min(width, math.pi):.3g})")
+            raise out_of_range(
+                "supply hole diameter / radius", self.diameter, f"(0, {min(width, math.pi):.3g})"
+            )
         if not abs(self.z) + self.diameter / 2 < width / 2:
             raise out_of_range("supply hole axial position / radius", self.z, "inside the bearing width")
         if half and self.z != 0.0:
@@ -94,7 +96,11 @@ class AxialGroove:
         if not 0 < self.arc < 2 * math.pi:
             raise out_of_range("axial groove arc", f"{math.degrees(self.arc):g} deg", "(0, 360) deg")
         if not 0 < self.length < width:
-            raise out_of_range("axial groove length / radius", f"{self.length:g}", f"(0, {width:g}), inside the bearing width")
+            raise out_of_range(
+                "axial groove length / radius",
+                f"{self.length:g}",
+                f"(0, {width:g}), inside the bearing width",
+            )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -117,8 +123,11 @@ class CircumferentialGroove:
     def check(self, width: float, half: bool) -> None:
         """Raise InputError unless the band fits on a film of width ``width`` (/ R)."""
         if not 0 < self.width < width:
-            raise out_of_range("circumferential groove width / radius", f"{self.width:g}",
-                               f"(0, {width:g}), inside the bearing width")
+            raise out_of_range(
+                "circumferential groove width / radius",
+                f"{self.width:g}",
+                f"(0, {width:g}), inside the bearing width",
+            )
 
 
 Supply = SupplyHole | AxialGroove | CircumferentialGroove
@@ -143,8 +152,10 @@ class FilmMeshSpec:
             raise out_of_range("mesh order", self.order, "1 or 2")
         if self.supply is not None:
             if not isinstance(self.supply, Supply):
-                raise InputError(f"supply = {self.supply!r} is not a supply (allowed: SupplyHole, AxialGroove, "
-                                 "CircumferentialGroove)")
+                raise InputError(
+                    f"supply = {self.supply!r} is not a supply (allowed: SupplyHole, AxialGroove, "
+                    "CircumferentialGroove)"
+                )
             self.supply.check(self.width, self.half)
 
     @property
@@ -158,8 +169,15 @@ def _supply_tool(occ, supply: Supply) -> tuple[int, float, float]:
     axial range [z_low, z_high] that the supply's piece of the surface lies in)."""
     if isinstance(supply, SupplyHole):  # a radial cylinder through the wall
         direction = (math.cos(supply.angle), math.sin(supply.angle))
-        tool = occ.addCylinder(0.5 * direction[0], 0.5 * direction[1], supply.z, direction[0], direction[1], 0.0,
-                               supply.diameter / 2)
+        tool = occ.addCylinder(
+            0.5 * direction[0],
+            0.5 * direction[1],
+            supply.z,
+            direction[0],
+            direction[1],
+            0.0,
+            supply.diameter / 2,
+        )
         return tool, supply.z - supply.diameter / 2, supply.z + supply.diameter / 2
     # grooves: a sector of angle arc (axial) or a whole cylinder (circumferential), of radius 2 and
     # axial range |z| <= extent/2 (on a half mesh its lower half lies below the film)
@@ -226,7 +244,9 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
     if supply is not None:  # resolve the supply's rim
         rim = min(spec.element_size, supply.rim_size)
         gmsh.option.setNumber("Mesh.CharacteristicLengthMin", rim)
-        gmsh.model.mesh.setSize(gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True), rim)
+        gmsh.model.mesh.setSize(
+            gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True), rim
+        )
     gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
     gmsh.model.mesh.generate(2)
     if spec.order == 2:
@@ -269,4 +289,12 @@ def film_mesh(spec: FilmMeshSpec, comm: MPI.Comm):
     return mesh, cell_tags, facet_tags
 
 
-__all__ = ["TAGS", "AxialGroove", "CircumferentialGroove", "FilmMeshSpec", "Supply", "SupplyHole", "film_mesh"]
+__all__ = [
+    "TAGS",
+    "AxialGroove",
+    "CircumferentialGroove",
+    "FilmMeshSpec",
+    "Supply",
+    "SupplyHole",
+    "film_mesh",
+]

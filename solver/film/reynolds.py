@@ -48,7 +48,9 @@ class Roughness(Protocol):
     def pressure_flow_y(self, Hs: Any, mod: Any = np) -> Any: ...  # phi_y, axial
     def shear_flow(self, Hs: Any, mod: Any = np) -> Any: ...  # phi_s (sign from sigma1^2 - sigma2^2)
     def contact_factor(self, Hs: Any, mod: Any = np) -> Any: ...  # phi_c
-    def shear_stress_factors(self, Hs: Any, mod: Any = np) -> tuple[Any, Any, Any]: ...  # Phi_f, Phi_fs, Phi_fp
+    def shear_stress_factors(
+        self, Hs: Any, mod: Any = np
+    ) -> tuple[Any, Any, Any]: ...  # Phi_f, Phi_fs, Phi_fp
     def pressure_shear_factor(self, Hs: Any, mod: Any = np) -> Any: ...  # Phi_fp alone
 
 
@@ -93,8 +95,15 @@ class FilmGeometry:
     ``H_flow`` is H.
     """
 
-    def __init__(self, mesh, params: FilmParameters, deformation=None, previous_deformation=None, inverse_step=None,
-                 flow_floor: float = 0.0):
+    def __init__(
+        self,
+        mesh,
+        params: FilmParameters,
+        deformation=None,
+        previous_deformation=None,
+        inverse_step=None,
+        flow_floor: float = 0.0,
+    ):
         x = ufl.SpatialCoordinate(mesh)
         r = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
         self.cos, self.sin = x[0] / r, x[1] / r  # exact on the circle through each point
@@ -129,8 +138,14 @@ class FilmGeometry:
 
     def variables(self) -> dict[str, Any]:
         """The UFL variables the film's Jacobian is taken with respect to."""
-        return {"eps_x": self.eps_x, "eps_y": self.eps_y, "deps_x": self.deps_x, "deps_y": self.deps_y,
-                "U_mean": self.U_mean, "U_half_diff": self.U_half_diff}
+        return {
+            "eps_x": self.eps_x,
+            "eps_y": self.eps_y,
+            "deps_x": self.deps_x,
+            "deps_y": self.deps_y,
+            "U_mean": self.U_mean,
+            "U_half_diff": self.U_half_diff,
+        }
 
 
 def flow_factors(geometry: FilmGeometry, roughness: Roughness | None):
@@ -138,8 +153,12 @@ def flow_factors(geometry: FilmGeometry, roughness: Roughness | None):
     if roughness is None:
         return 1.0, 1.0, 0.0, 1.0
     Hs = geometry.H / geometry.params.S
-    return (roughness.pressure_flow_x(Hs, mod=ufl), roughness.pressure_flow_y(Hs, mod=ufl),
-            roughness.shear_flow(Hs, mod=ufl), roughness.contact_factor(Hs, mod=ufl))
+    return (
+        roughness.pressure_flow_x(Hs, mod=ufl),
+        roughness.pressure_flow_y(Hs, mod=ufl),
+        roughness.shear_flow(Hs, mod=ufl),
+        roughness.contact_factor(Hs, mod=ufl),
+    )
 
 
 def reynolds_coefficients(geometry: FilmGeometry, roughness: Roughness | None = None):

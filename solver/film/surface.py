@@ -43,7 +43,9 @@ class Surface:
             if not (math.isfinite(value) and value >= 0):
                 raise out_of_range(name, value, ">= 0 m")
         if not self.peklenik_gamma > 0:
-            raise out_of_range("peklenik_gamma", self.peklenik_gamma, f"> 0 (fits: [{GAMMAS[0]:.4g}, {GAMMAS[-1]:g}])")
+            raise out_of_range(
+                "peklenik_gamma", self.peklenik_gamma, f"> 0 (fits: [{GAMMAS[0]:.4g}, {GAMMAS[-1]:g}])"
+            )
         if not GAMMAS[0] <= self.peklenik_gamma <= GAMMAS[-1]:
             raise out_of_range("peklenik_gamma", self.peklenik_gamma, f"[{GAMMAS[0]:.4g}, {GAMMAS[-1]:g}]")
         for name in ("E_journal", "E_bushing"):
@@ -86,7 +88,9 @@ class Surface:
     def roughness(self) -> PatirCheng | None:
         if not self.rough:
             return None
-        return PatirCheng(sigma_bushing=self.sigma_bushing, sigma_journal=self.sigma_journal, gamma=self.peklenik_gamma)
+        return PatirCheng(
+            sigma_bushing=self.sigma_bushing, sigma_journal=self.sigma_journal, gamma=self.peklenik_gamma
+        )
 
     def contact(self) -> GreenwoodTripp | None:
         if not self.rough:
@@ -94,8 +98,16 @@ class Surface:
         sigma = self.sigma
         ebs = self.eta_beta_sigma
         if ebs is None:
-            radius = self.asperity_radius if self.asperity_radius is not None else sigma / self.sigma_over_beta
+            radius = (
+                self.asperity_radius if self.asperity_radius is not None else sigma / self.sigma_over_beta
+            )
             ebs = self.asperity_density * radius * sigma
         sob = self.sigma_over_beta if self.sigma_over_beta is not None else sigma / self.asperity_radius
-        return GreenwoodTripp(sigma=sigma, eta_beta_sigma=ebs, sigma_over_beta=sob, modulus=self.modulus,
-                              friction=self.asperity_friction, method=self.asperity_model)
+        return GreenwoodTripp(
+            sigma=sigma,
+            eta_beta_sigma=ebs,
+            sigma_over_beta=sob,
+            modulus=self.modulus,
+            friction=self.asperity_friction,
+            method=self.asperity_model,
+        )

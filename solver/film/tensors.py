@@ -87,12 +87,17 @@ class MidpointOperator:
         if not np.array_equal(self.indices[position], cols):
             raise RuntimeError("MidpointOperator: a cell's entry is not in the matrix's sparsity pattern")
         cell_of = np.repeat(cells, 9)
-        self.T_theta = scipy.sparse.csr_matrix((local_theta.ravel(), (position, cell_of)), shape=(nnz, n_cells))
+        self.T_theta = scipy.sparse.csr_matrix(
+            (local_theta.ravel(), (position, cell_of)), shape=(nnz, n_cells)
+        )
         self.T_z = scipy.sparse.csr_matrix((local_z.ravel(), (position, cell_of)), shape=(nnz, n_cells))
         n_dofs = V.dofmap.index_map.size_local
-        self.T_f = scipy.sparse.csr_matrix((np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))),
-                                           shape=(n_dofs, n_cells))
-        self.integrands = list(integrals)  # (the mass-conserving film evaluates them with its own coefficients)
+        self.T_f = scipy.sparse.csr_matrix(
+            (np.repeat(weight / 3.0, 3), (dofs.ravel(), np.repeat(cells, 3))), shape=(n_dofs, n_cells)
+        )
+        self.integrands = list(
+            integrals
+        )  # (the mass-conserving film evaluates them with its own coefficients)
         #: what ``evaluate`` needs at the midpoints (UFL): k_theta, k_z, f, then the integrands
         self.coefficients = list(coefficients) + self.integrands
         self.expression = fem.Expression(ufl.as_vector(self.coefficients), MIDPOINT)
@@ -109,7 +114,9 @@ class MidpointOperator:
         self.integrals = np.zeros(len(integrals))
         self.cells = cells
         # Dirichlet dofs: their rows and columns are zeroed and their diagonal set to 1 (dolfinx's way)
-        bc_dofs = np.unique(np.concatenate([bc.dof_indices()[0] for bc in bcs])) if bcs else np.zeros(0, np.int32)
+        bc_dofs = (
+            np.unique(np.concatenate([bc.dof_indices()[0] for bc in bcs])) if bcs else np.zeros(0, np.int32)
+        )
         row_of = np.repeat(np.arange(n_dofs), np.diff(self.indptr))
         is_bc = np.zeros(n_dofs, dtype=bool)
         is_bc[bc_dofs] = True
@@ -190,9 +197,12 @@ class PressureTorque:
         cols = np.repeat(dofs, len(weights), axis=0).ravel()
         n_dofs = V.dofmap.index_map.size_local
         self.B = scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n_points, n_dofs))
-        basis = np.column_stack([1.0 - points[:, 0] - points[:, 1], points[:, 0], points[:, 1]])  # (q, vertex)
-        self.interpolation = scipy.sparse.csr_matrix((np.tile(basis.ravel(), n_cells), (rows, cols)),
-                                                     shape=(n_points, n_dofs))  # P1 values at the points
+        basis = np.column_stack(
+            [1.0 - points[:, 0] - points[:, 1], points[:, 0], points[:, 1]]
+        )  # (q, vertex)
+        self.interpolation = scipy.sparse.csr_matrix(
+            (np.tile(basis.ravel(), n_cells), (rows, cols)), shape=(n_points, n_dofs)
+        )  # P1 values at the points
         self.roughness, self.S, self.flow_floor = roughness, S, flow_floor
 
     def coefficient(self, eps_x: float, eps_y: float, W: np.ndarray | None = None) -> np.ndarray:
@@ -241,7 +251,9 @@ class RigidMidpointCoefficients:
 
     def __init__(self, operator: MidpointOperator, params, roughness, integrals):
         if any(name not in self.INTEGRALS for name in integrals):
-            raise ValueError(f"RigidMidpointCoefficients: integrals {list(integrals)} (allowed: {self.INTEGRALS})")
+            raise ValueError(
+                f"RigidMidpointCoefficients: integrals {list(integrals)} (allowed: {self.INTEGRALS})"
+            )
         self.integrals = list(integrals)
         centroid = operator.centroid
         r = np.hypot(centroid[:, 0], centroid[:, 1])
@@ -270,9 +282,14 @@ class RigidMidpointCoefficients:
             out[:, 0] = H3 * rough.pressure_flow_x(Hs)
             out[:, 1] = H3 * rough.pressure_flow_y(Hs)
             phi_c = rough.contact_factor(Hs)
-            out[:, 2] = phi_c * (p["U_mean"] * dH_dtheta + dH_dT) + p["U_half_diff"] * rough.shear_flow_slope(Hs) * dH_dtheta
+            out[:, 2] = (
+                phi_c * (p["U_mean"] * dH_dtheta + dH_dT)
+                + p["U_half_diff"] * rough.shear_flow_slope(Hs) * dH_dtheta
+            )
             if couette is not None:
                 Phi_f, Phi_fs, _ = rough.shear_stress_factors(Hs)
         for k, name in enumerate(self.integrals):
-            out[:, 3 + k] = couette * (Phi_f - Phi_fs) if name == self.INTEGRALS[0] else -couette * (Phi_f + Phi_fs)
+            out[:, 3 + k] = (
+                couette * (Phi_f - Phi_fs) if name == self.INTEGRALS[0] else -couette * (Phi_f + Phi_fs)
+            )
         return out

@@ -74,8 +74,12 @@ class Roelands:
         # q(p) on a graded grid (fine near 0, where the slope changes fastest); beyond p_max the
         # integrand exp(-...) is below 1e-30 of its start for any oil, so q_limit = q(p_max)
         low = min(p_min, 0.0)
-        grid = np.concatenate([np.linspace(low, 0.0, 200)[:-1] if low < 0 else np.zeros(0),
-                               p_max * np.linspace(0.0, 1.0, 20001) ** 3])
+        grid = np.concatenate(
+            [
+                np.linspace(low, 0.0, 200)[:-1] if low < 0 else np.zeros(0),
+                p_max * np.linspace(0.0, 1.0, 20001) ** 3,
+            ]
+        )
         # f = dq/dp = 1/ratio, integrated by the trapezoidal rule with its end correction
         # (Euler-Maclaurin, fourth order); q(p) and p(q) are cubic Hermite splines with the exact
         # slopes, so the round trip and the slope dq/dp = mu0/mu hold to ~1e-10

@@ -91,8 +91,10 @@ class BatchPlan:
 
 # -- discovery ------------------------------------------------------------------------------------
 
-def discover(paths: Sequence[str | Path], *, cases_dir: str | Path | None = None,
-             output: str | Path | None = None) -> BatchPlan:
+
+def discover(
+    paths: Sequence[str | Path], *, cases_dir: str | Path | None = None, output: str | Path | None = None
+) -> BatchPlan:
     """Case directories from PATHs: case directories, directories of case directories, sweep files.
 
     A sweep file (a TOML file with a ``[sweep]`` table) is expanded (solver.study.sweep; this writes the
@@ -124,11 +126,15 @@ def discover(paths: Sequence[str | Path], *, cases_dir: str | Path | None = None
                 parameters += [key for key in sweep.keys if key not in parameters]
                 sweep_dirs.append(sweep.cases_dir)
             elif path.suffix == ".toml":
-                raise InputError(f"{raw}: a TOML file without a [sweep] table; batch takes case directories "
-                                 f"(with case.toml) or sweep files")
+                raise InputError(
+                    f"{raw}: a TOML file without a [sweep] table; batch takes case directories "
+                    f"(with case.toml) or sweep files"
+                )
             else:
-                raise InputError(f"{raw}: not a case directory or a sweep file (to run every case directory "
-                                 f"in a directory, give the directory)")
+                raise InputError(
+                    f"{raw}: not a case directory or a sweep file (to run every case directory "
+                    f"in a directory, give the directory)"
+                )
         elif path.is_dir():
             if (path / "case.toml").is_file():
                 cases.append(path.resolve())
@@ -148,8 +154,10 @@ def discover(paths: Sequence[str | Path], *, cases_dir: str | Path | None = None
     names: dict[str, Path] = {}
     for case in unique:
         if case.name in names:
-            raise InputError(f"two cases are both named {case.name}: {names[case.name]} and {case} "
-                             f"(case names, the directory names, must be unique in a batch)")
+            raise InputError(
+                f"two cases are both named {case.name}: {names[case.name]} and {case} "
+                f"(case names, the directory names, must be unique in a batch)"
+            )
         names[case.name] = case
     if output is not None:
         out = Path(output).resolve()
@@ -177,6 +185,7 @@ def discover_collective(world, paths: Sequence[str | Path], **kwargs) -> BatchPl
 
 
 # -- per-case state ---------------------------------------------------------------------------------
+
 
 def case_toml_sha256(case_dir: Path) -> str | None:
     """SHA-256 of the case's case.toml (None if unreadable)."""
@@ -216,9 +225,21 @@ def _now() -> str:
 
 def _metrics(summary: Any) -> dict[str, Any]:
     out = {}
-    for name in ("h_min_min", "p_max_max", "F_asperity_max", "friction_power_mean", "cycles", "periodic",
-                 "wall_time", "film_temperature", "film_viscosity", "thermal_closure", "heat_generated",
-                 "heat_to_oil", "heat_carried"):
+    for name in (
+        "h_min_min",
+        "p_max_max",
+        "F_asperity_max",
+        "friction_power_mean",
+        "cycles",
+        "periodic",
+        "wall_time",
+        "film_temperature",
+        "film_viscosity",
+        "thermal_closure",
+        "heat_generated",
+        "heat_to_oil",
+        "heat_carried",
+    ):
         value = getattr(summary, name, None)
         if isinstance(value, (bool, np.bool_)):
             out[name] = bool(value)
@@ -245,8 +266,12 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
     if skip:
         if group.rank == 0:
             previous = read_case_status(case_dir) or {}
-            record.update(status="skipped", error="", finished=previous.get("finished", ""),
-                          wall_time_s=previous.get("wall_time_s"))
+            record.update(
+                status="skipped",
+                error="",
+                finished=previous.get("finished", ""),
+                wall_time_s=previous.get("wall_time_s"),
+            )
             return record
         return None
 
@@ -266,9 +291,15 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
     if group.rank != 0:
         return None
     record.update(
-        status=error[0] if error else "complete", error=error[1] if error else "",
-        started=started, finished=_now(), wall_time_s=wall, case_toml_sha256=sha,
-        ranks=group.size, host=socket.gethostname(), solver_version=__version__,
+        status=error[0] if error else "complete",
+        error=error[1] if error else "",
+        started=started,
+        finished=_now(),
+        wall_time_s=wall,
+        case_toml_sha256=sha,
+        ranks=group.size,
+        host=socket.gethostname(),
+        solver_version=__version__,
     )
     if error:
         record["traceback"] = error[2]
@@ -289,6 +320,7 @@ def _write_case_status(case_dir: Path, record: dict) -> None:
 
 # -- groups and scheduling ----------------------------------------------------------------------------
 
+
 def split_groups(world, ranks_per_case: int):
     """(group communicator, group index, number of groups). Collective on ``world``.
 
@@ -298,8 +330,10 @@ def split_groups(world, ranks_per_case: int):
     if isinstance(ranks_per_case, bool) or not isinstance(ranks_per_case, int) or ranks_per_case < 1:
         raise InputError(f"--ranks-per-case = {ranks_per_case!r} is out of range (allowed: an integer >= 1)")
     if ranks_per_case > world.size:
-        raise InputError(f"--ranks-per-case = {ranks_per_case} is out of range "
-                         f"(allowed: <= the number of MPI ranks, {world.size})")
+        raise InputError(
+            f"--ranks-per-case = {ranks_per_case} is out of range "
+            f"(allowed: <= the number of MPI ranks, {world.size})"
+        )
     n_groups = world.size // ranks_per_case
     color = min(world.rank // ranks_per_case, n_groups - 1)
     return world.Split(color=color, key=world.rank), color, n_groups
@@ -350,6 +384,7 @@ class StaticCounter:
 
 # -- the batch -------------------------------------------------------------------------------------
 
+
 @dataclasses.dataclass
 class BatchResult:
     """Outcome of a batch (``records`` and ``files`` on world rank 0 only; ``exit_status`` everywhere)."""
@@ -360,21 +395,37 @@ class BatchResult:
 
 
 def _counts(records: list[dict]) -> dict[str, int]:
-    return {state: sum(r["status"] == state for r in records) for state in STATES if
-            any(r["status"] == state for r in records) or state in ("complete", "failed")}
+    return {
+        state: sum(r["status"] == state for r in records)
+        for state in STATES
+        if any(r["status"] == state for r in records) or state in ("complete", "failed")
+    }
 
 
 def _status_document(plan: BatchPlan, records: list[dict], info: dict) -> dict:
     return {
-        "solver_version": __version__, **info, "output": str(plan.output), "n_cases": len(records),
-        "counts": _counts(records), "all_passed": all(r["status"] in PASSED for r in records),
+        "solver_version": __version__,
+        **info,
+        "output": str(plan.output),
+        "n_cases": len(records),
+        "counts": _counts(records),
+        "all_passed": all(r["status"] in PASSED for r in records),
         "cases": records,
     }
 
 
-def run_batch(plan: BatchPlan, world, *, ranks_per_case: int = 1, schedule: str = "dynamic",
-              force: bool = False, runner: Runner | None = None, shard: tuple[int, int] | None = None,
-              summary: bool = True, plot_metric: str = "h_min_min") -> BatchResult:
+def run_batch(
+    plan: BatchPlan,
+    world,
+    *,
+    ranks_per_case: int = 1,
+    schedule: str = "dynamic",
+    force: bool = False,
+    runner: Runner | None = None,
+    shard: tuple[int, int] | None = None,
+    summary: bool = True,
+    plot_metric: str = "h_min_min",
+) -> BatchResult:
     """Run every case of the plan over the ranks of ``world``. Collective on ``world``.
 
     Args:
@@ -401,12 +452,22 @@ def run_batch(plan: BatchPlan, world, *, ranks_per_case: int = 1, schedule: str 
         plan = plan.shard(index, count)
     group, group_index, n_groups = split_groups(world, ranks_per_case)
     if world.rank == 0:
-        log.info("batch: %d case(s) on %d rank(s): %d group(s) of %d rank(s), %s schedule%s", len(plan.cases),
-                 world.size, n_groups, ranks_per_case, schedule,
-                 f", shard {shard[0]}/{shard[1]}" if shard else "")
+        log.info(
+            "batch: %d case(s) on %d rank(s): %d group(s) of %d rank(s), %s schedule%s",
+            len(plan.cases),
+            world.size,
+            n_groups,
+            ranks_per_case,
+            schedule,
+            f", shard {shard[0]}/{shard[1]}" if shard else "",
+        )
         if world.size % ranks_per_case:
-            log.warning("world size %d is not a multiple of --ranks-per-case %d: the last group has %d ranks",
-                        world.size, ranks_per_case, ranks_per_case + world.size % ranks_per_case)
+            log.warning(
+                "world size %d is not a multiple of --ranks-per-case %d: the last group has %d ranks",
+                world.size,
+                ranks_per_case,
+                ranks_per_case + world.size % ranks_per_case,
+            )
     started, start = _now(), time.perf_counter()
     counter = DynamicCounter(world) if schedule == "dynamic" else StaticCounter(group_index, n_groups)
     records: list[tuple[int, dict]] = []
@@ -430,11 +491,19 @@ def run_batch(plan: BatchPlan, world, *, ranks_per_case: int = 1, schedule: str 
     outcome: tuple[int, list[dict], list[Path]] = (0, [], [])
     if world.rank == 0:
         ordered = [record for _, record in sorted(item for part in gathered for item in part)]
-        info = {"started": started, "finished": _now(), "wall_time_s": wall, "world_size": world.size,
-                "ranks_per_case": ranks_per_case, "groups": n_groups, "schedule": schedule,
-                "shard": f"{shard[0]}/{shard[1]}" if shard else None}
-        outcome = _finish(plan, ordered, info, shard=shard, summary=summary and shard is None,
-                          plot_metric=plot_metric)
+        info = {
+            "started": started,
+            "finished": _now(),
+            "wall_time_s": wall,
+            "world_size": world.size,
+            "ranks_per_case": ranks_per_case,
+            "groups": n_groups,
+            "schedule": schedule,
+            "shard": f"{shard[0]}/{shard[1]}" if shard else None,
+        }
+        outcome = _finish(
+            plan, ordered, info, shard=shard, summary=summary and shard is None, plot_metric=plot_metric
+        )
     exit_status = world.bcast(outcome[0], root=0)
     return BatchResult(exit_status=exit_status, records=outcome[1], files=outcome[2])
 
@@ -447,14 +516,22 @@ def _log_record(record: dict, index: int, total: int) -> None:
         metrics = record.get("metrics", {})
         h = metrics.get("h_min_min")
         extra = f", h_min min {h * 1e6:.4g} um" if isinstance(h, float) else ""
-        log.info("[%d/%d] %s: complete in %.1f s on %d rank(s)%s", index + 1, total, name,
-                 record["wall_time_s"], record["ranks"], extra)
+        log.info(
+            "[%d/%d] %s: complete in %.1f s on %d rank(s)%s",
+            index + 1,
+            total,
+            name,
+            record["wall_time_s"],
+            record["ranks"],
+            extra,
+        )
     else:
         log.error("[%d/%d] %s: %s: %s", index + 1, total, name, status, record["error"])
 
 
-def _finish(plan: BatchPlan, records: list[dict], info: dict, *, shard, summary: bool,
-            plot_metric: str) -> tuple[int, list[dict], list[Path]]:
+def _finish(
+    plan: BatchPlan, records: list[dict], info: dict, *, shard, summary: bool, plot_metric: str
+) -> tuple[int, list[dict], list[Path]]:
     """World rank 0: status file, summary, exit status."""
     files: list[Path] = []
     exit_status = 0 if all(r["status"] in PASSED for r in records) else 1
@@ -469,15 +546,18 @@ def _finish(plan: BatchPlan, records: list[dict], info: dict, *, shard, summary:
         exit_status = 1
     if summary:
         try:
-
-            files += summaries.write_summary(records, plan.output, metric=plot_metric,
-                                             parameters=plan.parameters)
+            files += summaries.write_summary(
+                records, plan.output, metric=plot_metric, parameters=plan.parameters
+            )
         except Exception as err:  # noqa: BLE001 - the cases are done; report and fail the exit status
             log.error("summary failed: %s: %s", type(err).__name__, err)
             exit_status = 1
     counts = _counts(records)
-    log.info("batch: %s; %s", ", ".join(f"{n} {state}" for state, n in counts.items()),
-             ", ".join(str(f) for f in files) or "no files written")
+    log.info(
+        "batch: %s; %s",
+        ", ".join(f"{n} {state}" for state, n in counts.items()),
+        ", ".join(str(f) for f in files) or "no files written",
+    )
     return exit_status, records, files
 
 
@@ -497,17 +577,31 @@ def collect(plan: BatchPlan, *, plot_metric: str = "h_min_min", summary: bool = 
             for key in ("finished", "wall_time_s", "ranks", "host", "metrics"):
                 if key in status:
                     record[key] = status[key]
-        elif (status.get("status") in ("failed", "invalid")
-              and status.get("case_toml_sha256") == case_toml_sha256(case_dir)):
+        elif status.get("status") in ("failed", "invalid") and status.get(
+            "case_toml_sha256"
+        ) == case_toml_sha256(case_dir):
             record.update({k: v for k, v in status.items() if k not in record})
         else:
             record.update(status="missing", error="not run (or interrupted) since case.toml last changed")
         records.append(record)
     info = {"finished": _now(), "collected": True}
-    exit_status, records, files = _finish(plan, records, info, shard=None, summary=summary,
-                                          plot_metric=plot_metric)
+    exit_status, records, files = _finish(
+        plan, records, info, shard=None, summary=summary, plot_metric=plot_metric
+    )
     return BatchResult(exit_status=exit_status, records=records, files=files)
 
 
-__all__ = ["BatchPlan", "BatchResult", "discover", "discover_collective", "run_batch", "run_one", "collect",
-           "split_groups", "is_finished", "results_complete", "DynamicCounter", "StaticCounter"]
+__all__ = [
+    "BatchPlan",
+    "BatchResult",
+    "discover",
+    "discover_collective",
+    "run_batch",
+    "run_one",
+    "collect",
+    "split_groups",
+    "is_finished",
+    "results_complete",
+    "DynamicCounter",
+    "StaticCounter",
+]

@@ -86,8 +86,12 @@ class FilmSeries:
         from dolfinx.io import XDMFFile  # dolfinx only for the fields: the plots and netCDF do not need it
 
         self.directory, self.name, self.model, self.comm = Path(directory), name, model, model.comm
-        self.tmp = Path(self.comm.bcast(tempfile.mkdtemp(prefix=".series-", dir=self.directory)
-                                        if self.comm.rank == 0 else None, root=0))
+        self.tmp = Path(
+            self.comm.bcast(
+                tempfile.mkdtemp(prefix=".series-", dir=self.directory) if self.comm.rank == 0 else None,
+                root=0,
+            )
+        )
         self.xdmf = XDMFFile(self.comm, str(self.tmp / f"{name}.xdmf"), "w")
         x = model.mesh.geometry.x
         original = x.copy()
@@ -167,7 +171,11 @@ def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     p = model.P.x.array[:n] * model.scales.pressure * 1e-6
     if model.mesh_spec.half:  # the solved half z >= 0 and its mirror image
         mirror = z > 0
-        theta, z, p = np.concatenate([theta, theta[mirror]]), np.concatenate([z, -z[mirror]]), np.concatenate([p, p[mirror]])
+        theta, z, p = (
+            np.concatenate([theta, theta[mirror]]),
+            np.concatenate([z, -z[mirror]]),
+            np.concatenate([p, p[mirror]]),
+        )
     parts = model.comm.gather((theta, z, p), root=0)
     if model.comm.rank != 0:
         return None
@@ -228,11 +236,25 @@ STRIBECK_VARIABLES = {  # name -> (units, long_name)
 
 
 def stribeck_dataset(speeds_rpm, hersey, petroff, data: dict, attrs: dict):
-    variables = {name: ("speed", data[name], {"units": u, "long_name": ln}) for name, (u, ln) in STRIBECK_VARIABLES.items()}
-    variables["hersey_number"] = ("speed", hersey, {"units": "1", "long_name": "Hersey number eta N / P (N in rev/s)"})
-    variables["petroff_friction_coefficient"] = ("speed", petroff, {"units": "1", "long_name": "Petroff's law"})
-    return xr.Dataset(variables, coords={"speed": ("speed", speeds_rpm, {"units": "rpm", "long_name": "journal speed"})},
-                      attrs=attrs)
+    variables = {
+        name: ("speed", data[name], {"units": u, "long_name": ln})
+        for name, (u, ln) in STRIBECK_VARIABLES.items()
+    }
+    variables["hersey_number"] = (
+        "speed",
+        hersey,
+        {"units": "1", "long_name": "Hersey number eta N / P (N in rev/s)"},
+    )
+    variables["petroff_friction_coefficient"] = (
+        "speed",
+        petroff,
+        {"units": "1", "long_name": "Petroff's law"},
+    )
+    return xr.Dataset(
+        variables,
+        coords={"speed": ("speed", speeds_rpm, {"units": "rpm", "long_name": "journal speed"})},
+        attrs=attrs,
+    )
 
 
 def plot_stribeck(ds, path: Path) -> None:

@@ -58,27 +58,46 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "omega_rel": ("rad s-1", "angular speed of the pin relative to the rod"),
     "h_min_over_sigma": ("1", "minimum film thickness over composite roughness"),
     "contact_area_ratio": ("1", "real asperity contact area over nominal bearing area"),
-    "deformation_max": ("m", "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)"),
+    "deformation_max": (
+        "m",
+        "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)",
+    ),
     "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
     "side_flow": ("m3 s-1", "oil volume flow out of both bushing edges (film joints; NaN otherwise)"),
-    "supply_flow": ("m3 s-1", "oil volume flow from the supply hole or groove into the film (finite-element film; "
-                    "0 without a supply, NaN for other joints)"),
-    "cavitated_area_ratio": ("1", "ruptured film area over bearing area: film fraction < 1 (oil.cavitation = jfo) "
-                             "or pressure at the cavitation pressure (reynolds); finite-element film, NaN otherwise"),
-    "oil_volume": ("m3", "oil held in the film, integral of film fraction x mean gap (oil.cavitation = jfo; NaN "
-                   "otherwise)"),
+    "supply_flow": (
+        "m3 s-1",
+        "oil volume flow from the supply hole or groove into the film (finite-element film; "
+        "0 without a supply, NaN for other joints)",
+    ),
+    "cavitated_area_ratio": (
+        "1",
+        "ruptured film area over bearing area: film fraction < 1 (oil.cavitation = jfo) "
+        "or pressure at the cavitation pressure (reynolds); finite-element film, NaN otherwise",
+    ),
+    "oil_volume": (
+        "m3",
+        "oil held in the film, integral of film fraction x mean gap (oil.cavitation = jfo; NaN otherwise)",
+    ),
     "dissipated_power": ("W", "power dissipated in the joint (friction + squeeze)"),
     "input_power": ("W", "power of the crank driver and the gas on the mechanism"),
     "kinetic_energy": ("J", "kinetic energy of the mechanism"),
     "potential_energy": ("J", "gravitational potential energy of the mechanism"),
-    "input_work": ("J", "work of the crank driver (from the crank's generalized momentum) and of the gas since "
-                   "the cycle's start"),
-    "dissipated_energy": ("J", "energy dissipated in the joint since the cycle's start, integrated along the "
-                          "integrator's stages"),
-    "drift_work": ("J", "work of the constraints' reactions on the integrator's velocity-constraint residual "
-                   "since the cycle's start, with the kinetic energy of the velocities' projection at the "
-                   "outputs: a numerical term (0 for an exact solution)"),
+    "input_work": (
+        "J",
+        "work of the crank driver (from the crank's generalized momentum) and of the gas since "
+        "the cycle's start",
+    ),
+    "dissipated_energy": (
+        "J",
+        "energy dissipated in the joint since the cycle's start, integrated along the integrator's stages",
+    ),
+    "drift_work": (
+        "J",
+        "work of the constraints' reactions on the integrator's velocity-constraint residual "
+        "since the cycle's start, with the kinetic energy of the velocities' projection at the "
+        "outputs: a numerical term (0 for an exact solution)",
+    ),
 }
 
 
@@ -92,8 +111,13 @@ FILM_VARIABLES: dict[str, tuple[str, str]] = {
     "heat_generated": ("W", "cycle mean of dissipated_power"),
     "side_flow_mean": ("m3 s-1", "cycle mean of side_flow"),
     "heat_to_oil": ("W", "heat into the oil, (1 - oil.heat_to_solids) x heat_generated"),
-    "heat_carried": ("W", ("heat carried out by the side flow, film_density c_p side_flow_mean "
-                           "(film_temperature - oil.temperature_C)")),
+    "heat_carried": (
+        "W",
+        (
+            "heat carried out by the side flow, film_density c_p side_flow_mean "
+            "(film_temperature - oil.temperature_C)"
+        ),
+    ),
     "thermal_closure": ("1", "|heat_to_oil - heat_carried| / heat_to_oil"),
 }
 
@@ -108,7 +132,7 @@ TIMING: dict[str, str] = {
     "steps": "accepted integrator steps",
     "rejected_steps": "rejected integrator step attempts (error test or Newton failure)",
     "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to upwinding "
-                           "(its limited solve did not converge)",
+    "(its limited solve did not converge)",
     "film_solve_s": "seconds in film solves",
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",
@@ -156,21 +180,43 @@ def detach_log(handler: logging.Handler | None) -> None:
         handler.close()
 
 
-def write_checkpoint(path: Path, fingerprint: str, cycles: int, t: float, q, qd, history, timings=(), *,
-                     thermal: list[dict] | None = None, film: list[tuple[float, np.ndarray]] | None = None,
-                     friction=()) -> None:
+def write_checkpoint(
+    path: Path,
+    fingerprint: str,
+    cycles: int,
+    t: float,
+    q,
+    qd,
+    history,
+    timings=(),
+    *,
+    thermal: list[dict] | None = None,
+    film: list[tuple[float, np.ndarray]] | None = None,
+    friction=(),
+) -> None:
     """State at a cycle end, with the h_min history, the cycles' timing, the thermal iteration's
     state (solver.study.thermal.EffectiveTemperature.state; None: isothermal), an elastic bushing's
-    committed film states (solver.film.bearing.FilmModel.deformation_history; None: rigid) and the
+    committed film states (solver.film.bearing.FilmModel.committed_history; None: rigid) and the
     cycles' mean friction power (atomic)."""
     film = film or []
     film_times = np.array([time for time, _ in film], dtype=float)
     film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
     with io.atomic_path(path) as part:
         with open(part, "wb") as stream:
-            np.savez(stream, fingerprint=fingerprint, cycles=cycles, t=t, q=q, qd=qd, history=np.asarray(history),
-                     timings=json.dumps(list(timings)), thermal=json.dumps(thermal), film_times=film_times,
-                     film_states=film_states, friction=np.asarray(friction, dtype=float))
+            np.savez(
+                stream,
+                fingerprint=fingerprint,
+                cycles=cycles,
+                t=t,
+                q=q,
+                qd=qd,
+                history=np.asarray(history),
+                timings=json.dumps(list(timings)),
+                thermal=json.dumps(thermal),
+                film_times=film_times,
+                film_states=film_states,
+                friction=np.asarray(friction, dtype=float),
+            )
 
 
 def read_checkpoint(path: Path, fingerprint: str):
@@ -185,17 +231,31 @@ def read_checkpoint(path: Path, fingerprint: str):
                 return None
             timings = json.loads(str(data["timings"])) if "timings" in data else []
             thermal = json.loads(str(data["thermal"])) if "thermal" in data else None
-            film = list(zip(data["film_times"].tolist(), data["film_states"].copy())) if "film_times" in data else []
+            film = (
+                list(zip(data["film_times"].tolist(), data["film_states"].copy()))
+                if "film_times" in data
+                else []
+            )
             friction = list(data["friction"]) if "friction" in data else []
-            return (int(data["cycles"]), float(data["t"]), data["q"].copy(), data["qd"].copy(), list(data["history"]),
-                    timings, thermal, film, friction)
+            return (
+                int(data["cycles"]),
+                float(data["t"]),
+                data["q"].copy(),
+                data["qd"].copy(),
+                list(data["history"]),
+                timings,
+                thermal,
+                film,
+                friction,
+            )
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
         return None
 
 
-def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict,
-                  film: dict[str, float] | None = None):
+def build_dataset(
+    case, columns: dict[str, np.ndarray], ideal, *, attrs: dict, film: dict[str, float] | None = None
+):
     """The xarray Dataset of the data contract; ``film``: the FILM_VARIABLES (scalars), if given."""
     angles = columns["crank_angle"]
     data = dict(columns)
@@ -203,18 +263,41 @@ def build_dataset(case, columns: dict[str, np.ndarray], ideal, *, attrs: dict,
     data["ideal_pin_force_y"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_y)
     data["eps"] = np.hypot(data["ecc_x"], data["ecc_y"]) / case.small_end.clearance
     data["h_min_over_sigma"] = data["h_min"] / case.surface.sigma
-    variables = {name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
-                 for name, (u, ln) in VARIABLES.items()}
+    variables = {
+        name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
+        for name, (u, ln) in VARIABLES.items()
+    }
     if film is not None:
-        variables.update({name: ((), float(film[name]), {"units": u, "long_name": ln})
-                          for name, (u, ln) in FILM_VARIABLES.items()})
-    coords = {"crank_angle": ("crank_angle", angles, {"units": "degree",
-                                                      "long_name": "crank angle (0 = TDC at the start of intake)"})}
+        variables.update(
+            {
+                name: ((), float(film[name]), {"units": u, "long_name": ln})
+                for name, (u, ln) in FILM_VARIABLES.items()
+            }
+        )
+    coords = {
+        "crank_angle": (
+            "crank_angle",
+            angles,
+            {"units": "degree", "long_name": "crank angle (0 = TDC at the start of intake)"},
+        )
+    }
     return xr.Dataset(variables, coords=coords, attrs=attrs)
 
 
-def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles: int, periodic: bool,
-                  wall_time: float, fields: list[Path], comm: MPI.Comm):
+def write_results(
+    out_dir: Path,
+    case,
+    run,
+    cycle,
+    ideal,
+    *,
+    joint: str,
+    cycles: int,
+    periodic: bool,
+    wall_time: float,
+    fields: list[Path],
+    comm: MPI.Comm,
+):
     """Write results.nc and the plots (rank 0); return the RunSummary on every rank."""
     cols = cycle.columns
     summary_values = {
@@ -225,42 +308,73 @@ def write_results(out_dir: Path, case, run, cycle, ideal, *, joint: str, cycles:
     }
     film = run.film_record(cycle)
     attrs = {**case_attributes(case)}
-    attrs.update({
-        "status": "complete", "solver_version": __version__, "joint": joint, "cycles": cycles,
-        "periodic": "true" if periodic else "false", "wall_time_s": wall_time,
-        "mesh_size": run.model.mesh_spec.element_size if run.model is not None else "none",
-        "film_dofs": run.model.dofs if run.model is not None else 0,
-        "rtol": case.solver.rtol, "atol": "1e-4 clearance on positions, x crank speed on velocities",
-        "periodic_tolerance": case.solver.periodic_tolerance,
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "fields": ", ".join(p.name for p in fields),
-        **{f"summary.{k}": v for k, v in summary_values.items()},
-        **{f"timing.{name}": np.array([cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float)
-           for name in TIMING},
-        "timing.fields_io_s": run.fields_seconds,
-        **{f"history.{name}": np.array(values, dtype=float) for name, values in run.cycle_history.items()},
-        "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum "
-        "of h_min [m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's "
-        "quantities)",
-        "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
-        + "; one value per computed cycle, the first cycle first",
-        "Conventions": "CF-1.8 (partially)", "title": f"engine small-end tribo-dynamics: {case.name}",
-    })
+    attrs.update(
+        {
+            "status": "complete",
+            "solver_version": __version__,
+            "joint": joint,
+            "cycles": cycles,
+            "periodic": "true" if periodic else "false",
+            "wall_time_s": wall_time,
+            "mesh_size": run.model.mesh_spec.element_size if run.model is not None else "none",
+            "film_dofs": run.model.dofs if run.model is not None else 0,
+            "rtol": case.solver.rtol,
+            "atol": "1e-4 clearance on positions, x crank speed on velocities",
+            "periodic_tolerance": case.solver.periodic_tolerance,
+            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "fields": ", ".join(p.name for p in fields),
+            **{f"summary.{k}": v for k, v in summary_values.items()},
+            **{
+                f"timing.{name}": np.array(
+                    [cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float
+                )
+                for name in TIMING
+            },
+            "timing.fields_io_s": run.fields_seconds,
+            **{
+                f"history.{name}": np.array(values, dtype=float) for name, values in run.cycle_history.items()
+            },
+            "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum "
+            "of h_min [m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's "
+            "quantities)",
+            "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
+            + "; one value per computed cycle, the first cycle first",
+            "Conventions": "CF-1.8 (partially)",
+            "title": f"engine small-end tribo-dynamics: {case.name}",
+        }
+    )
     if run.thermal is not None:
         attrs["thermal.temperatures_C"] = np.array([b.temperature for b in run.thermal.history], dtype=float)
         attrs["thermal.closures"] = np.array([b.closure for b in run.thermal.history], dtype=float)
-        attrs["thermal.description"] = ("film temperature and heat balance closure of every computed cycle, "
-                                        "the first cycle first (solver.study.thermal)")
+        attrs["thermal.description"] = (
+            "film temperature and heat balance closure of every computed cycle, "
+            "the first cycle first (solver.study.thermal)"
+        )
     ds = build_dataset(case, cols, ideal, attrs=attrs, film=film)
     results = out_dir / "results.nc"
     if comm.rank == 0:
         io.write_netcdf(ds, results)
         plot_cycle(ds, out_dir, title=f"{case.name} ({joint})")
     comm.Barrier()
-    return RunSummary(case=case.name, results=results, cycles=cycles, periodic=periodic, wall_time=wall_time,
-                      **summary_values, **{name: film[name] for name in ("film_temperature", "film_viscosity",
-                                                                         "thermal_closure", "heat_generated",
-                                                                         "heat_to_oil", "heat_carried")})
+    return RunSummary(
+        case=case.name,
+        results=results,
+        cycles=cycles,
+        periodic=periodic,
+        wall_time=wall_time,
+        **summary_values,
+        **{
+            name: film[name]
+            for name in (
+                "film_temperature",
+                "film_viscosity",
+                "thermal_closure",
+                "heat_generated",
+                "heat_to_oil",
+                "heat_carried",
+            )
+        },
+    )
 
 
 def nan_reduce(fn, values: np.ndarray) -> float:
@@ -318,7 +432,10 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     # film thickness and pressure
     fig, (a1, a2) = io.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
     a1.plot(angle, ds.h_min.values * 1e6, color="tab:blue")
-    sigma = math.hypot(float(ds.attrs["surface.sigma_pin_um"]), float(ds.attrs["surface.sigma_bushing_um"])) * 1e-6
+    sigma = (
+        math.hypot(float(ds.attrs["surface.sigma_pin_um"]), float(ds.attrs["surface.sigma_bushing_um"]))
+        * 1e-6
+    )
     if np.any(np.isfinite(ds.F_asperity.values)):
         a1.axhline(3 * sigma * 1e6, color="tab:red", ls=":", label="3 sigma (asperity contact below)")
         a1.legend(fontsize=8)
@@ -333,7 +450,13 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     fig, ax = io.subplots(figsize=(8, 4.2), constrained_layout=True)
     ideal = np.hypot(ds.ideal_pin_force_x.values, ds.ideal_pin_force_y.values)
     ax.plot(angle, ideal / 1e3, color="k", lw=1, ls="--", label="ideal joint |F_pin|")
-    ax.plot(angle, np.hypot(ds.pin_force_x.values, ds.pin_force_y.values) / 1e3, color="0.4", lw=1, label="|F_pin|")
+    ax.plot(
+        angle,
+        np.hypot(ds.pin_force_x.values, ds.pin_force_y.values) / 1e3,
+        color="0.4",
+        lw=1,
+        label="|F_pin|",
+    )
     ax.plot(angle, ds.F_hydro.values / 1e3, color="tab:blue", label="film")
     ax.plot(angle, ds.F_asperity.values / 1e3, color="tab:red", label="asperity contact")
     ax.set_ylabel("force [kN]")

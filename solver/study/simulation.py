@@ -124,8 +124,10 @@ def _input_work(columns: dict[str, np.ndarray]) -> np.ndarray:
     is smooth; then ``int omega dI`` (exact at constant speed), and the gas power (smooth) by the
     trapezoidal rule. The same run's audit then moved by less than 0.03 % between those samplings.
     """
-    p, arrival, rate, omega = (columns.pop(k) for k in ("_crank_momentum", "_crank_momentum_arrival",
-                                                        "_crank_momentum_source", "_crank_speed"))
+    p, arrival, rate, omega = (
+        columns.pop(k)
+        for k in ("_crank_momentum", "_crank_momentum_arrival", "_crank_momentum_source", "_crank_speed")
+    )
     t = columns["time"]
     dt = np.diff(t)
     # each output interval from the projected state to the integrator's arrival: the projection of the
@@ -207,17 +209,36 @@ class _Run:
         for k in range(1, n_out + 1):
             t_end = float(times[k])
             try:
-                tr = integrate(self.em.mechanism, q, qd, (t, t_end), method="ESDIRK32", rtol=self.case.solver.rtol,
-                               atol=self.atol, alpha=self.omega, beta=self.omega, t_eval=np.array([t_end]),
-                               first_step=step, assemble_initial_state=False, jacobian_reuse=True,
-                               jacobian=jacobian, interpolant=interpolant, accelerations=False,
-                               on_step=self._step_accepted, stage_values=self._stage_powers)
+                tr = integrate(
+                    self.em.mechanism,
+                    q,
+                    qd,
+                    (t, t_end),
+                    method="ESDIRK32",
+                    rtol=self.case.solver.rtol,
+                    atol=self.atol,
+                    alpha=self.omega,
+                    beta=self.omega,
+                    t_eval=np.array([t_end]),
+                    first_step=step,
+                    assemble_initial_state=False,
+                    jacobian_reuse=True,
+                    jacobian=jacobian,
+                    interpolant=interpolant,
+                    accelerations=False,
+                    on_step=self._step_accepted,
+                    stage_values=self._stage_powers,
+                )
             except IntegrationError as err:
-                raise SimulationError(f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
-                                      f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}") from None
+                raise SimulationError(
+                    f"the {self.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
+                    f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}"
+                ) from None
             q, t = tr.q[-1], t_end
             jacobian, interpolant = tr.jacobian, tr.interpolant
-            step = min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
+            step = (
+                min(tr.next_step, 4 * (t_end - float(times[k - 1]))) if math.isfinite(tr.next_step) else None
+            )
             row, qd = self._state_outputs(t, q, tr.qd[-1])  # the next interval starts from these velocities
             self._commit(t)
             rows.append(row)
@@ -239,12 +260,14 @@ class _Run:
         timing.update(wall_s=wall, steps=self.steps - steps_before, rejected_steps=rejected, multibody_s=wall)
         if film_before is not None:
             now = self.model.stats
-            timing.update(film_solves=now.solves - film_before.solves,
-                          vi_iterations=now.vi_iterations - film_before.vi_iterations,
-                          film_jacobians=now.jacobians - film_before.jacobians,
-                          transport_fallbacks=now.transport_fallbacks - film_before.transport_fallbacks,
-                          film_solve_s=now.solve_seconds - film_before.solve_seconds,
-                          film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds)
+            timing.update(
+                film_solves=now.solves - film_before.solves,
+                vi_iterations=now.vi_iterations - film_before.vi_iterations,
+                film_jacobians=now.jacobians - film_before.jacobians,
+                transport_fallbacks=now.transport_fallbacks - film_before.transport_fallbacks,
+                film_solve_s=now.solve_seconds - film_before.solve_seconds,
+                film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds,
+            )
             timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
         return CycleOutput(columns, float(np.nanmin(h_min)), timing), (t, q, qd)
 
@@ -268,8 +291,9 @@ class _Run:
         qdd, lam = accelerations(self.em.mechanism, q, qd, t, Q, alpha=self.omega, beta=self.omega)
         out = self._outputs(t, q, qd, qdd, lam)
         # the crank's momentum on arrival (the integrator's velocities) and after the projection
-        (out["_crank_momentum_arrival"], out["_crank_momentum"]), out["_crank_momentum_source"] = \
+        (out["_crank_momentum_arrival"], out["_crank_momentum"]), out["_crank_momentum_source"] = (
             self._crank_momentum(t, q, (arrival, qd), Q)
+        )
         out["_crank_speed"] = qd[3 * CRANK + 2]
         return out, qd
 
@@ -295,7 +319,9 @@ class _Run:
         V = self._crank_direction(q, t)
         qd = velocities[-1]
         eps = self.DIRECTION_STEP
-        V_dot = (self._crank_direction(q + eps * qd, t + eps) - self._crank_direction(q - eps * qd, t - eps)) / (2 * eps)
+        V_dot = (
+            self._crank_direction(q + eps * qd, t + eps) - self._crank_direction(q - eps * qd, t - eps)
+        ) / (2 * eps)
         momentum = masses * qd
         return tuple(float(V @ (masses * v)) for v in velocities), float(V_dot @ momentum + V @ Q)
 
@@ -330,16 +356,37 @@ class _Run:
         theta = float(q[3 * CRANK + 2])
         reactions = joint_reactions(mech, q, t, lam)
         out: dict[str, float] = {
-            "time": t, "x_piston": q[3 * PISTON], "v_piston": qd[3 * PISTON], "a_piston": qdd[3 * PISTON],
-            "rod_angle": q[3 * ROD + 2], "F_gas": float(engine.gas_force(theta)),
+            "time": t,
+            "x_piston": q[3 * PISTON],
+            "v_piston": qd[3 * PISTON],
+            "a_piston": qdd[3 * PISTON],
+            "rod_angle": q[3 * ROD + 2],
+            "F_gas": float(engine.gas_force(theta)),
             "p_cyl": float(engine.cylinder_pressure.pressure(theta)),
             "crank_torque": reactions["crank_driver"][CRANK, 2],
         }
         c = self.case.small_end.clearance
         nan = math.nan
-        values = dict(ecc_x=nan, ecc_y=nan, ecc_rate_x=nan, ecc_rate_y=nan, omega_rel=nan, pin_force_x=nan, pin_force_y=nan, h_min=nan, p_max=nan, F_hydro=nan,
-                      F_asperity=nan, friction_torque=nan, friction_power=nan, squeeze_power=nan,
-                      dissipated_power=nan, contact_area_ratio=nan, deformation_max=nan, deformation_max_angle=nan)
+        values = dict(
+            ecc_x=nan,
+            ecc_y=nan,
+            ecc_rate_x=nan,
+            ecc_rate_y=nan,
+            omega_rel=nan,
+            pin_force_x=nan,
+            pin_force_y=nan,
+            h_min=nan,
+            p_max=nan,
+            F_hydro=nan,
+            F_asperity=nan,
+            friction_torque=nan,
+            friction_power=nan,
+            squeeze_power=nan,
+            dissipated_power=nan,
+            contact_area_ratio=nan,
+            deformation_max=nan,
+            deformation_max_angle=nan,
+        )
         values.update(side_flow=nan, supply_flow=nan, cavitated_area_ratio=nan, oil_volume=nan)
         if em.small_end is None:
             values["pin_force_x"], values["pin_force_y"] = reactions["small_end"][ROD, :2]
@@ -350,27 +397,51 @@ class _Run:
             A_b = rotation(float(q[3 * ROD + 2]))
             pin_on_rod = -(A_b @ F_b)
             squeeze, friction, dissipated = _joint_powers(kin, forces, qd)
-            values.update(ecc_x=kin.ecc[0], ecc_y=kin.ecc[1], ecc_rate_x=kin.ecc_rate[0], ecc_rate_y=kin.ecc_rate[1],
-                          omega_rel=kin.omega_rel, pin_force_x=pin_on_rod[0], pin_force_y=pin_on_rod[1],
-                          h_min=c - math.hypot(*kin.ecc), friction_torque=forces.journal_torque,
-                          friction_power=friction, squeeze_power=squeeze, dissipated_power=dissipated)
-            result = self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel, t) if self.model is not None else None
+            values.update(
+                ecc_x=kin.ecc[0],
+                ecc_y=kin.ecc[1],
+                ecc_rate_x=kin.ecc_rate[0],
+                ecc_rate_y=kin.ecc_rate[1],
+                omega_rel=kin.omega_rel,
+                pin_force_x=pin_on_rod[0],
+                pin_force_y=pin_on_rod[1],
+                h_min=c - math.hypot(*kin.ecc),
+                friction_torque=forces.journal_torque,
+                friction_power=friction,
+                squeeze_power=squeeze,
+                dissipated_power=dissipated,
+            )
+            result = (
+                self.joint.result_at(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
+                if self.model is not None
+                else None
+            )
             if result is not None:
-                values.update(p_max=result.p_max, F_hydro=result.hydro_load, F_asperity=result.asperity_load,
-                              contact_area_ratio=result.contact_area_ratio, h_min=result.h_min,
-                              deformation_max=result.max_deformation,
-                              deformation_max_angle=result.max_deformation_theta, side_flow=result.side_flow,
-                              supply_flow=result.supply_flow, cavitated_area_ratio=result.cavitated_area_ratio,
-                              oil_volume=result.oil_volume)
+                values.update(
+                    p_max=result.p_max,
+                    F_hydro=result.hydro_load,
+                    F_asperity=result.asperity_load,
+                    contact_area_ratio=result.contact_area_ratio,
+                    h_min=result.h_min,
+                    deformation_max=result.max_deformation,
+                    deformation_max_angle=result.max_deformation_theta,
+                    side_flow=result.side_flow,
+                    supply_flow=result.supply_flow,
+                    cavitated_area_ratio=result.cavitated_area_ratio,
+                    oil_volume=result.oil_volume,
+                )
             elif self.joint_name == "short-bearing":
-                values.update(F_hydro=float(np.hypot(*F_b)), F_asperity=0.0,
-                              side_flow=self.joint.side_flow(kin.ecc, kin.ecc_rate, kin.omega_rel))
+                values.update(
+                    F_hydro=float(np.hypot(*F_b)),
+                    F_asperity=0.0,
+                    side_flow=self.joint.side_flow(kin.ecc, kin.ecc_rate, kin.omega_rel),
+                )
             elif self.joint_name == "dry":
                 values.update(F_hydro=0.0, F_asperity=float(np.hypot(*F_b)))
         out.update(values)
         # energy: input power of the driver, the gas and gravity; mechanical energy
         out["kinetic_energy"], out["potential_energy"] = self._energies(q, qd)
-        out["input_power"] = (out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON])
+        out["input_power"] = out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON]
         return out
 
     def _energies(self, q, qd) -> tuple[float, float]:
@@ -406,7 +477,9 @@ class _Run:
         dissipated = 0.0
         if element is not None:
             kin = element.kinematics(q, qd)
-            dissipated = _joint_powers(kin, element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t), qd)[2]
+            dissipated = _joint_powers(
+                kin, element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t), qd
+            )[2]
         residual = mech.jacobian(q, t) @ qd + mech.phi_t(q, t)
         return np.array([dissipated, -float(lam @ residual)])
 
@@ -433,7 +506,7 @@ class _Run:
             case = dataclasses.replace(self.case, oil=oil)
             self.joint, self.model = joint_from_case(case, self.engine, self.comm, self.joint_name)
             if deformation is not None:
-                self.model.commit_deformation(deformation, t)
+                self.model.commit_history(deformation, t)
         self.em = build_mechanism(self.engine, self.joint)
         self.film_temperature, self.film_viscosity = temperature, oil.viscosity
 
@@ -450,15 +523,23 @@ class _Run:
         generated, and NaN for the balance's other terms and its closure.
         """
         cols, nan, data = cycle.columns, math.nan, self.case.oil.data()
-        record = {"film_temperature": self.film_temperature, "film_viscosity": self.film_viscosity,
-                  "film_density": float(data.density(self.film_temperature)) if data is not None else nan,
-                  "heat_generated": cycle_mean(cols["dissipated_power"], cols["time"]),
-                  "side_flow_mean": cycle_mean(cols["side_flow"], cols["time"]),
-                  "heat_to_oil": nan, "heat_carried": nan, "thermal_closure": nan}
+        record = {
+            "film_temperature": self.film_temperature,
+            "film_viscosity": self.film_viscosity,
+            "film_density": float(data.density(self.film_temperature)) if data is not None else nan,
+            "heat_generated": cycle_mean(cols["dissipated_power"], cols["time"]),
+            "side_flow_mean": cycle_mean(cols["side_flow"], cols["time"]),
+            "heat_to_oil": nan,
+            "heat_carried": nan,
+            "thermal_closure": nan,
+        }
         if self.thermal is not None and self.thermal.history:
             balance = self.thermal.history[-1]
-            record.update(heat_to_oil=balance.heat_to_oil, heat_carried=balance.heat_carried,
-                          thermal_closure=balance.closure)
+            record.update(
+                heat_to_oil=balance.heat_to_oil,
+                heat_carried=balance.heat_carried,
+                thermal_closure=balance.closure,
+            )
         return record
 
     # -- film fields --------------------------------------------------------------------------------
@@ -479,15 +560,18 @@ class _Run:
 
         def solve_at(k: int) -> bool:
             """The film at output k as in the run; False (with a warning) if it cannot be solved again."""
-            kin = Kinematics((float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
-                             (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
-                             float(cols["omega_rel"][k]), 0.0)
+            kin = Kinematics(
+                (float(cols["ecc_x"][k]), float(cols["ecc_y"][k])),
+                (float(cols["ecc_rate_x"][k]), float(cols["ecc_rate_y"][k])),
+                float(cols["omega_rel"][k]),
+                0.0,
+            )
             try:
                 if k < len(committed) and committed[k] is not None:
                     # elastic bushing: the deformation's rate from the states it was taken from in the run;
                     # the last of them is also the warm start (one integrator step away)
                     for time_s, state in committed[k]:
-                        self.model.commit_deformation(state, time_s)
+                        self.model.commit_history(state, time_s)
                     self.model.start_from(committed[k][-1][1])
                     self.model.solve(kin, float(cols["time"][k]))
                 else:
@@ -547,11 +631,17 @@ def _logs_above_the_bar():
 def describe_timing(timing: dict[str, float]) -> str:
     """One line: the counts and where the seconds went (TIMING)."""
     t = timing
-    return (f"{t['wall_s']:.1f} s; {t['film_solves']:.0f} film solves ({t['vi_iterations']:.0f} VI iterations) "
-            f"{t['film_solve_s']:.1f} s, {t['film_jacobians']:.0f} film Jacobians {t['film_jacobian_s']:.1f} s, "
-            f"{t['steps']:.0f} steps ({t['rejected_steps']:.0f} rejected), multibody/integrator "
-            f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s"
-            + (f"; {t['transport_fallbacks']:.0f} steps fell back to the upwind transport" if t.get("transport_fallbacks") else ""))
+    return (
+        f"{t['wall_s']:.1f} s; {t['film_solves']:.0f} film solves ({t['vi_iterations']:.0f} VI iterations) "
+        f"{t['film_solve_s']:.1f} s, {t['film_jacobians']:.0f} film Jacobians {t['film_jacobian_s']:.1f} s, "
+        f"{t['steps']:.0f} steps ({t['rejected_steps']:.0f} rejected), multibody/integrator "
+        f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s"
+        + (
+            f"; {t['transport_fallbacks']:.0f} steps fell back to the upwind transport"
+            if t.get("transport_fallbacks")
+            else ""
+        )
+    )
 
 
 def _ideal_cycle_output(ideal) -> CycleOutput:
@@ -559,22 +649,56 @@ def _ideal_cycle_output(ideal) -> CycleOutput:
     n = len(ideal.crank_angle)
     nan = np.full(n, np.nan)
     columns = {
-        "crank_angle": ideal.crank_angle, "time": ideal.time, "x_piston": ideal.piston_position,
-        "v_piston": ideal.piston_velocity, "a_piston": ideal.piston_acceleration, "rod_angle": ideal.rod_angle,
-        "F_gas": ideal.gas_force, "p_cyl": ideal.cylinder_pressure, "crank_torque": ideal.crank_torque,
-        "pin_force_x": ideal.pin_force_x, "pin_force_y": ideal.pin_force_y,
+        "crank_angle": ideal.crank_angle,
+        "time": ideal.time,
+        "x_piston": ideal.piston_position,
+        "v_piston": ideal.piston_velocity,
+        "a_piston": ideal.piston_acceleration,
+        "rod_angle": ideal.rod_angle,
+        "F_gas": ideal.gas_force,
+        "p_cyl": ideal.cylinder_pressure,
+        "crank_torque": ideal.crank_torque,
+        "pin_force_x": ideal.pin_force_x,
+        "pin_force_y": ideal.pin_force_y,
         "input_power": ideal.crank_torque * ideal.crank_speed - ideal.gas_force * ideal.piston_velocity,
     }
-    for name in ("ecc_x", "ecc_y", "ecc_rate_x", "ecc_rate_y", "omega_rel", "h_min", "p_max", "F_hydro", "F_asperity",
-                 "friction_torque", "friction_power", "squeeze_power", "dissipated_power", "contact_area_ratio",
-                 "deformation_max", "deformation_max_angle", "kinetic_energy", "potential_energy",
-                 "side_flow", "supply_flow", "cavitated_area_ratio", "oil_volume", *ENERGY_COLUMNS):
+    for name in (
+        "ecc_x",
+        "ecc_y",
+        "ecc_rate_x",
+        "ecc_rate_y",
+        "omega_rel",
+        "h_min",
+        "p_max",
+        "F_hydro",
+        "F_asperity",
+        "friction_torque",
+        "friction_power",
+        "squeeze_power",
+        "dissipated_power",
+        "contact_area_ratio",
+        "deformation_max",
+        "deformation_max_angle",
+        "kinetic_energy",
+        "potential_energy",
+        "side_flow",
+        "supply_flow",
+        "cavitated_area_ratio",
+        "oil_volume",
+        *ENERGY_COLUMNS,
+    ):
         columns[name] = nan.copy()
     return CycleOutput(columns, math.nan)
 
 
-def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None, progress: bool = False,
-             resume: bool = True) -> RunSummary:
+def run_case(
+    case_path: str | Path,
+    comm: MPI.Comm,
+    *,
+    joint: str | None = None,
+    progress: bool = False,
+    resume: bool = True,
+) -> RunSummary:
     """Run one case directory; write ``results/`` beside its case.toml; return the summary.
 
     Args:
@@ -594,8 +718,10 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
     if joint not in JOINTS:
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     if case.oil.thermal == "effective" and joint not in ("mixed-fem", "short-bearing"):
-        raise InputError(f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
-                         f'"mixed-fem" or "short-bearing"; got {joint!r})')
+        raise InputError(
+            f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
+            f'"mixed-fem" or "short-bearing"; got {joint!r})'
+        )
     out_dir = case.directory / "results"
     if comm.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -613,17 +739,38 @@ def run_case(case_path: str | Path, comm: MPI.Comm, *, joint: str | None = None,
             cycle, cycles_done, periodic = _cycles(run, out_dir, progress, resume)
         fields = run.write_fields(out_dir, cycle)
         wall = time.perf_counter() - start
-        summary = results_io.write_results(out_dir, case, run, cycle, ideal, joint=joint, cycles=cycles_done,
-                                           periodic=periodic, wall_time=wall, fields=fields, comm=comm)
+        summary = results_io.write_results(
+            out_dir,
+            case,
+            run,
+            cycle,
+            ideal,
+            joint=joint,
+            cycles=cycles_done,
+            periodic=periodic,
+            wall_time=wall,
+            fields=fields,
+            comm=comm,
+        )
         if comm.rank == 0:
             checkpoint = out_dir / "checkpoint.npz"
             if checkpoint.exists():
                 checkpoint.unlink()
-        log.info("finished in %.1f s: h_min min %.3g um, p_max max %.3g MPa, %d cycles, periodic %s", wall,
-                 summary.h_min_min * 1e6, summary.p_max_max / 1e6, cycles_done, periodic)
+        log.info(
+            "finished in %.1f s: h_min min %.3g um, p_max max %.3g MPa, %d cycles, periodic %s",
+            wall,
+            summary.h_min_min * 1e6,
+            summary.p_max_max / 1e6,
+            cycles_done,
+            periodic,
+        )
         if run.thermal is not None:
-            log.info("film temperature %.6g C, viscosity %.6g Pa s, heat balance closure %.2g",
-                     summary.film_temperature, summary.film_viscosity, summary.thermal_closure)
+            log.info(
+                "film temperature %.6g C, viscosity %.6g Pa s, heat balance closure %.2g",
+                summary.film_temperature,
+                summary.film_viscosity,
+                summary.thermal_closure,
+            )
         return summary
     finally:
         results_io.detach_log(handler)
@@ -644,7 +791,7 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
         log.info("resuming after cycle %d from %s", first, checkpoint)
         if run.model is not None:  # an elastic bushing's deformation (JFO: film fraction) history goes on
             for time_s, film_state in film_states:
-                run.model.commit_deformation(film_state, time_s)
+                run.model.commit_history(film_state, time_s)
             if film_states:  # and the next solve starts where the run's would have: from the cycle's end
                 run.model.start_from(film_states[-1][1])
         if run.thermal is not None and thermal_state:
@@ -655,13 +802,20 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
         t0, q0, qd0 = run.em.initial_state(0.0)
     bar = None
     if progress and comm.rank == 0:
-        bar = tqdm(total=case.solver.max_cycles * 720, initial=first * 720, unit="deg", desc=case.name,
-                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} deg [{elapsed}<{remaining}] {postfix}")
+        bar = tqdm(
+            total=case.solver.max_cycles * 720,
+            initial=first * 720,
+            unit="deg",
+            desc=case.name,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} deg [{elapsed}<{remaining}] {postfix}",
+        )
 
     def report(cycle_index, angle, h_min):
         if bar is not None:
             bar.n = cycle_index * 720 + angle
-            bar.set_postfix_str(f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um", refresh=False)
+            bar.set_postfix_str(
+                f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um", refresh=False
+            )
             bar.refresh()
 
     cycle = None
@@ -672,10 +826,13 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
         h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
         f_change = _relative_change(friction)
-        text = (f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), "
-                f"mean friction power = {friction[-1]:.6g} W (change {f_change:.2g})")
+        text = (
+            f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), "
+            f"mean friction power = {friction[-1]:.6g} W (change {f_change:.2g})"
+        )
         return h_change < case.solver.periodic_tolerance and (
-            friction_tolerance is None or f_change < friction_tolerance), text
+            friction_tolerance is None or f_change < friction_tolerance
+        ), text
 
     def at_film_temperature(t_start: float) -> None:  # the temperature the thermal iteration asks for
         if run.thermal is not None and run.thermal.temperature != run.film_temperature:
@@ -689,11 +846,21 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
             following = run.thermal.record(balance)
         except ThermalError as err:
             raise SimulationError(f"cycle {cycle_index + 1}: {err}") from None
-        log.info("cycle %d: film %.6g C, %.4g Pa s: heat %.4g W, into the oil %.4g W, carried by the side "
-                 "flow (%.4g mm^3/s) %.4g W, closure %.2g; next cycle at %.6g C", cycle_index + 1,
-                 balance.temperature, run.film_viscosity, balance.dissipated_power, balance.heat_to_oil,
-                 balance.side_flow * 1e9, balance.heat_carried, balance.closure, following)
+        log.info(
+            "cycle %d: film %.6g C, %.4g Pa s: heat %.4g W, into the oil %.4g W, carried by the side "
+            "flow (%.4g mm^3/s) %.4g W, closure %.2g; next cycle at %.6g C",
+            cycle_index + 1,
+            balance.temperature,
+            run.film_viscosity,
+            balance.dissipated_power,
+            balance.heat_to_oil,
+            balance.side_flow * 1e9,
+            balance.heat_carried,
+            balance.closure,
+            following,
+        )
         return run.thermal.converged
+
     try:
         # log lines go above the progress bar instead of through it
         with _logs_above_the_bar() if bar is not None else nullcontext():
@@ -709,9 +876,20 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
                 timings.append(cycle.timing)
                 if comm.rank == 0:
                     thermal = run.thermal.state() if run.thermal is not None else None
-                    film = run.model.deformation_history() if run.model is not None else None
-                    results_io.write_checkpoint(checkpoint, fingerprint, index + 1, t0, q0, qd0, history,
-                                                timings, thermal=thermal, film=film, friction=friction)
+                    film = run.model.committed_history() if run.model is not None else None
+                    results_io.write_checkpoint(
+                        checkpoint,
+                        fingerprint,
+                        index + 1,
+                        t0,
+                        q0,
+                        qd0,
+                        history,
+                        timings,
+                        thermal=thermal,
+                        film=film,
+                        friction=friction,
+                    )
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
@@ -731,10 +909,17 @@ def _cycles(run: _Run, out_dir: Path, progress: bool, resume: bool):
     run.timings = timings
     run.cycle_history = {"h_min_min": list(history), "friction_power_mean": list(friction)}
     if not settled()[0]:
-        log.warning("not periodic after %d cycles (tolerance %g of the clearance%s)", len(history),
-                    case.solver.periodic_tolerance,
-                    "" if friction_tolerance is None else f"; friction {friction_tolerance:g} of itself")
+        log.warning(
+            "not periodic after %d cycles (tolerance %g of the clearance%s)",
+            len(history),
+            case.solver.periodic_tolerance,
+            "" if friction_tolerance is None else f"; friction {friction_tolerance:g} of itself",
+        )
     if run.thermal is not None and not run.thermal.converged:
-        log.warning("not thermally consistent after %d cycles: heat balance closure %.2g (tolerance %g)",
-                    len(history), run.thermal.history[-1].closure, run.thermal.tolerance)
+        log.warning(
+            "not thermally consistent after %d cycles: heat balance closure %.2g (tolerance %g)",
+            len(history),
+            run.thermal.history[-1].closure,
+            run.thermal.tolerance,
+        )
     return cycle, len(history), periodic

@@ -46,9 +46,12 @@ METRICS: dict[str, tuple[str, str, float, str]] = {
     "run_time": ("s", "wall time of the run", 1.0, "s"),
 }
 MAX_PANELS = 6  # the plot shows the first six varied parameters
-_RESULTS_VARIABLE = {"h_min_min": ("h_min", np.nanmin), "p_max_max": ("p_max", np.nanmax),
-                     "F_asperity_max": ("F_asperity", np.nanmax),
-                     "friction_power_mean": ("friction_power", None)}  # None: trapezoidal cycle mean
+_RESULTS_VARIABLE = {
+    "h_min_min": ("h_min", np.nanmin),
+    "p_max_max": ("p_max", np.nanmax),
+    "F_asperity_max": ("F_asperity", np.nanmax),
+    "friction_power_mean": ("friction_power", None),
+}  # None: trapezoidal cycle mean
 
 
 def case_parameters(case_dir: Path) -> dict[str, Any] | None:
@@ -152,48 +155,77 @@ def build_summary(records: Sequence[dict], parameters: Sequence[str] = ()):
     for key in keys:
         if key not in varied and len({_text(p.get(key)) for p in known}) > 1:
             varied.append(key)
-    metrics = [case_metrics(Path(r["directory"]) / "results" / "results.nc")
-               if r["status"] in ("complete", "skipped") else {} for r in records]
+    metrics = [
+        case_metrics(Path(r["directory"]) / "results" / "results.nc")
+        if r["status"] in ("complete", "skipped")
+        else {}
+        for r in records
+    ]
 
     coords: dict[str, Any] = {"case": ("case", np.array(names, dtype=object), {"long_name": "case name"})}
     for key in varied:
         spec = specs[key]
-        coords[key] = ("case", _coordinate([p.get(key) for p in params]),
-                       {"units": spec.unit or "1", "long_name": spec.doc})
+        coords[key] = (
+            "case",
+            _coordinate([p.get(key) for p in params]),
+            {"units": spec.unit or "1", "long_name": spec.doc},
+        )
     variables: dict[str, Any] = {}
     for name, (units, long_name, _, _) in METRICS.items():
-        variables[name] = ("case", np.array([m.get(name, math.nan) for m in metrics], dtype=float),
-                           {"units": units, "long_name": long_name})
-    variables["cycles"] = ("case", np.array([m.get("cycles", math.nan) for m in metrics], dtype=float),
-                           {"units": "1", "long_name": "720 deg cycles computed"})
-    variables["periodic"] = ("case", np.array([m.get("periodic", math.nan) for m in metrics], dtype=float),
-                             {"units": "1", "long_name": "1 if the run reached the periodicity tolerance"})
-    variables["status"] = ("case", np.array([r["status"] for r in records], dtype=object),
-                           {"long_name": "complete, skipped (finished earlier), failed, invalid or missing"})
-    variables["error"] = ("case", np.array([r.get("error", "") or "" for r in records], dtype=object),
-                          {"long_name": "error message of a failed case"})
+        variables[name] = (
+            "case",
+            np.array([m.get(name, math.nan) for m in metrics], dtype=float),
+            {"units": units, "long_name": long_name},
+        )
+    variables["cycles"] = (
+        "case",
+        np.array([m.get("cycles", math.nan) for m in metrics], dtype=float),
+        {"units": "1", "long_name": "720 deg cycles computed"},
+    )
+    variables["periodic"] = (
+        "case",
+        np.array([m.get("periodic", math.nan) for m in metrics], dtype=float),
+        {"units": "1", "long_name": "1 if the run reached the periodicity tolerance"},
+    )
+    variables["status"] = (
+        "case",
+        np.array([r["status"] for r in records], dtype=object),
+        {"long_name": "complete, skipped (finished earlier), failed, invalid or missing"},
+    )
+    variables["error"] = (
+        "case",
+        np.array([r.get("error", "") or "" for r in records], dtype=object),
+        {"long_name": "error message of a failed case"},
+    )
     constant = {key: _attribute(known[0][key]) for key in keys if key not in varied and key in known[0]}
-    counts = {state: sum(r["status"] == state for r in records) for state in
-              ("complete", "skipped", "failed", "invalid", "missing")}
+    counts = {
+        state: sum(r["status"] == state for r in records)
+        for state in ("complete", "skipped", "failed", "invalid", "missing")
+    }
     attrs = {
-        "title": "batch summary: one row per case", "solver_version": __version__,
+        "title": "batch summary: one row per case",
+        "solver_version": __version__,
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "varied_parameters": ", ".join(varied), "n_cases": len(records),
-        **{f"n_{state}": n for state, n in counts.items()}, **constant,
+        "varied_parameters": ", ".join(varied),
+        "n_cases": len(records),
+        **{f"n_{state}": n for state, n in counts.items()},
+        **constant,
     }
     return xr.Dataset(variables, coords=coords, attrs=attrs)
 
 
-def write_summary(records: Sequence[dict], directory: Path, *, metric: str = "h_min_min",
-                  parameters: Sequence[str] = ()) -> list[Path]:
+def write_summary(
+    records: Sequence[dict], directory: Path, *, metric: str = "h_min_min", parameters: Sequence[str] = ()
+) -> list[Path]:
     """Write ``summary.nc`` and ``summary_<metric>.png`` into ``directory``; return their paths."""
     if metric not in METRICS:
         raise ValueError(f"unknown metric {metric!r} (allowed: {', '.join(METRICS)})")
     ds = build_summary(records, parameters)
     directory = Path(directory)
     path = directory / "summary.nc"
-    encoding = {name: {"zlib": True, "complevel": 4}
-                for name, var in ds.data_vars.items() if var.dtype.kind == "f"}  # not the strings
+    encoding = {
+        name: {"zlib": True, "complevel": 4} for name, var in ds.data_vars.items() if var.dtype.kind == "f"
+    }  # not the strings
     with io.atomic_path(path) as part:
         ds.to_netcdf(part, encoding=encoding, format="NETCDF4")
     png = directory / f"summary_{metric}.png"
@@ -209,8 +241,9 @@ def plot_summary(ds, path: Path, metric: str) -> None:
     varied = [k for k in ds.attrs.get("varied_parameters", "").split(", ") if k][:MAX_PANELS]
     ncols = min(max(len(varied), 1), 3)
     nrows = math.ceil(max(len(varied), 1) / ncols)
-    fig, axes = io.subplots(nrows, ncols, figsize=(5.2 * ncols, 3.8 * nrows), squeeze=False,
-                             constrained_layout=True)
+    fig, axes = io.subplots(
+        nrows, ncols, figsize=(5.2 * ncols, 3.8 * nrows), squeeze=False, constrained_layout=True
+    )
     if not varied:
         ax = axes[0, 0]
         ax.bar(range(len(y)), np.nan_to_num(y), tick_label=[str(c) for c in ds["case"].values])
@@ -233,8 +266,12 @@ def plot_summary(ds, path: Path, metric: str) -> None:
         for label, members in sorted(groups.items(), key=lambda item: [_sort_key(v) for v in item[0]]):
             members = sorted(members, key=lambda i: x[i])
             text = ", ".join(f"{k.split('.', 1)[1]}={_label(v)}" for k, v in zip(others, label))
-            ax.plot(x[members], y[members], "o-" if len(members) > 1 else "o",
-                    label=text if len(groups) <= 8 and text else None)
+            ax.plot(
+                x[members],
+                y[members],
+                "o-" if len(members) > 1 else "o",
+                label=text if len(groups) <= 8 and text else None,
+            )
         if not groups:
             ax.text(0.5, 0.5, "no case with a value", ha="center", va="center", transform=ax.transAxes)
         spec_unit = ds[key].attrs.get("units", "")
@@ -243,7 +280,7 @@ def plot_summary(ds, path: Path, metric: str) -> None:
         ax.grid(True, alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
-    for ax in list(axes.flat)[max(len(varied), 1):]:
+    for ax in list(axes.flat)[max(len(varied), 1) :]:
         ax.set_visible(False)
     failed = int(np.sum(~np.isfinite(y)))
     fig.suptitle(f"{long_name}" + (f" ({failed} case(s) without a value)" if failed else ""))

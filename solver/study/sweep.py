@@ -185,8 +185,10 @@ def _expand_range(spec: FieldSpec, table: dict, where: str) -> list[Any]:
     if spec.kind not in (float, int):
         raise InputError(f"{where}: {name}: a range needs a numeric key (give a list of values)")
     if not {"start", "stop"} <= set(table) or ("num" in table) == ("step" in table):
-        raise InputError(f"{where}: {name}: a range is {{start, stop, num}} or {{start, stop, step}}, "
-                         f"got {{{', '.join(table)}}}")
+        raise InputError(
+            f"{where}: {name}: a range is {{start, stop, num}} or {{start, stop, step}}, "
+            f"got {{{', '.join(table)}}}"
+        )
     for key, value in table.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputError(f"{where}: {name}: {key} = {value!r} has the wrong type (expected a number)")
@@ -203,8 +205,10 @@ def _expand_range(spec: FieldSpec, table: dict, where: str) -> list[Any]:
     else:
         step = table["step"]
         if step == 0 or (stop - start) * step < 0:
-            raise InputError(f"{where}: {name}: step = {step!r} is out of range "
-                             f"(allowed: non-zero, from start towards stop)")
+            raise InputError(
+                f"{where}: {name}: step = {step!r} is out of range "
+                f"(allowed: non-zero, from start towards stop)"
+            )
         count = math.floor((stop - start) / step + 1e-9) + 1
         if count > 100000:
             raise InputError(f"{where}: {name}: the range has {count} values (allowed: <= 100000)")
@@ -246,8 +250,9 @@ def load_sweep(path: str | Path, cases_dir: str | Path | None = None) -> Sweep:
 
     base_value = table.get("base")
     if not isinstance(base_value, str):
-        raise InputError(f"{where}: sweep.base is required "
-                         f"(the base case directory, relative to the sweep file)")
+        raise InputError(
+            f"{where}: sweep.base is required (the base case directory, relative to the sweep file)"
+        )
     base = (file.parent / base_value).resolve()
     base_file = base / "case.toml" if base.is_dir() else base
     if not base_file.is_file():
@@ -261,8 +266,9 @@ def load_sweep(path: str | Path, cases_dir: str | Path | None = None) -> Sweep:
     if cases_dir is None:
         value = table.get("cases_dir", file.stem)
         if not isinstance(value, str) or not value:
-            raise InputError(f"{where}: sweep.cases_dir = {value!r} has the wrong type "
-                             f"(expected a directory name)")
+            raise InputError(
+                f"{where}: sweep.cases_dir = {value!r} has the wrong type (expected a directory name)"
+            )
         cases_dir = file.parent / value
     cases_dir = Path(cases_dir).resolve()
 
@@ -290,14 +296,17 @@ def load_sweep(path: str | Path, cases_dir: str | Path | None = None) -> Sweep:
                 raise InputError(f"{context}: {name} = [] has no values")
             values = [_check_value(spec, v, context) for v in value]
         else:
-            raise InputError(f"{context}: {name} = {value!r} has the wrong type "
-                             f"(expected a list of values or a range {{start, stop, num|step}})")
+            raise InputError(
+                f"{context}: {name} = {value!r} has the wrong type "
+                f"(expected a list of values or a range {{start, stop, num|step}})"
+            )
         parameters.append((name, tuple(values)))
     if mode == "zip" and len({len(values) for _, values in parameters}) > 1:
         lengths = ", ".join(f"{name}: {len(values)}" for name, values in parameters)
         raise InputError(f"{where}: sweep.mode = 'zip' needs lists of the same length ({lengths})")
-    return Sweep(file=file, base=base_file, cases_dir=cases_dir, mode=mode, fixed=fixed,
-                 parameters=tuple(parameters))
+    return Sweep(
+        file=file, base=base_file, cases_dir=cases_dir, mode=mode, fixed=fixed, parameters=tuple(parameters)
+    )
 
 
 def format_value(value: Any) -> str:
@@ -322,6 +331,7 @@ def case_name(values: dict[str, Any]) -> str:
 
 
 # -- writing -------------------------------------------------------------------------------------
+
 
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
@@ -365,8 +375,9 @@ def _case_files(sweep: Sweep, base: dict, values: dict[str, Any], name: str) -> 
     data["name"] = name
     described = ", ".join(f"{key} = {format_value(value)}" for key, value in values.items())
     base_description = data.get("description", "")
-    data["description"] = f"{base_description} | sweep: {described}" if base_description else \
-        f"sweep: {described}"
+    data["description"] = (
+        f"{base_description} | sweep: {described}" if base_description else f"sweep: {described}"
+    )
     files: dict[str, Path] = {}
     for spec in FIELDS:
         if spec.kind is not Path or spec.key not in data.get(spec.section, {}):
@@ -380,9 +391,11 @@ def _case_files(sweep: Sweep, base: dict, values: dict[str, Any], name: str) -> 
             raise InputError(f"{sweep.file}: case {name}: two data files are both called {target}")
         files[target] = source
         data[spec.section][spec.key] = target
-    header = (f"Generated by the sweep {sweep.file.name} from the base case {sweep.base}.\n"
-              f"Regenerate it from the sweep file rather than editing it (python3 -m solver batch "
-              f"{sweep.file.name} --list).")
+    header = (
+        f"Generated by the sweep {sweep.file.name} from the base case {sweep.base}.\n"
+        f"Regenerate it from the sweep file rather than editing it (python3 -m solver batch "
+        f"{sweep.file.name} --list)."
+    )
     return {"toml": case_toml(data, header), "files": files}
 
 
@@ -411,8 +424,11 @@ def _write_if_changed(path: Path, text: str) -> None:
 def manifest(sweep: Sweep) -> dict:
     """The content of ``sweep.json``."""
     return {
-        "sweep_file": str(sweep.file), "base": str(sweep.base), "mode": sweep.mode,
-        "set": sweep.fixed, "parameters": sweep.keys,
+        "sweep_file": str(sweep.file),
+        "base": str(sweep.base),
+        "mode": sweep.mode,
+        "set": sweep.fixed,
+        "parameters": sweep.keys,
         "cases": [{"name": case_name(values), "values": values} for values in sweep.cases()],
     }
 
@@ -430,8 +446,10 @@ def expand(sweep: Sweep) -> list[Path]:
     seen: dict[str, int] = {}
     for index, name in enumerate(names):
         if name in seen:
-            raise InputError(f"{sweep.file}: cases {seen[name] + 1} and {index + 1} both get the name {name} "
-                             f"(values equal to 12 significant digits)")
+            raise InputError(
+                f"{sweep.file}: cases {seen[name] + 1} and {index + 1} both get the name {name} "
+                f"(values equal to 12 significant digits)"
+            )
         seen[name] = index
     try:
         sweep.cases_dir.mkdir(parents=True, exist_ok=True)
@@ -453,8 +471,10 @@ def expand(sweep: Sweep) -> list[Path]:
                 raise InputError(f"{sweep.file}: case {name}: {err}") from None
             target_dir = sweep.cases_dir / name
             if target_dir.exists() and not _same(target_dir, staged):
-                raise InputError(f"{target_dir}: differs from the expansion of {sweep.file.name} (the base "
-                                 f"case or the sweep changed); delete the directory to regenerate it")
+                raise InputError(
+                    f"{target_dir}: differs from the expansion of {sweep.file.name} (the base "
+                    f"case or the sweep changed); delete the directory to regenerate it"
+                )
         for name in names:
             target_dir = sweep.cases_dir / name
             if target_dir.exists():
@@ -470,5 +490,13 @@ def expand(sweep: Sweep) -> list[Path]:
     return [sweep.cases_dir / name for name in names]
 
 
-__all__ = ["Sweep", "load_sweep", "expand", "is_sweep_file", "case_name", "format_value", "case_toml",
-           "manifest"]
+__all__ = [
+    "Sweep",
+    "load_sweep",
+    "expand",
+    "is_sweep_file",
+    "case_name",
+    "format_value",
+    "case_toml",
+    "manifest",
+]

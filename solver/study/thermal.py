@@ -118,20 +118,27 @@ class ThermalModel:
             ThermalError: P_diss or Q_side not finite and positive.
         """
         if not (math.isfinite(dissipated_power) and dissipated_power > 0):
-            raise ThermalError(f"the cycle's mean dissipated power is {dissipated_power:g} W (the balance "
-                               "needs > 0)")
+            raise ThermalError(
+                f"the cycle's mean dissipated power is {dissipated_power:g} W (the balance needs > 0)"
+            )
         if not (math.isfinite(side_flow) and side_flow > 0):
             raise ThermalError(f"the cycle's mean side flow is {side_flow:g} m^3/s (the balance needs > 0)")
         rho = float(self.oil.density(temperature))
         carried = rho * self.specific_heat * side_flow * (temperature - self.supply_temperature)
-        return HeatBalance(temperature=temperature, dissipated_power=dissipated_power, side_flow=side_flow,
-                           density=rho, heat_to_oil=(1.0 - self.heat_to_solids) * dissipated_power,
-                           heat_carried=carried)
+        return HeatBalance(
+            temperature=temperature,
+            dissipated_power=dissipated_power,
+            side_flow=side_flow,
+            density=rho,
+            heat_to_oil=(1.0 - self.heat_to_solids) * dissipated_power,
+            heat_carried=carried,
+        )
 
     def fixed_point(self, balance: HeatBalance) -> float:
         """T from the balance with that cycle's P_diss, Q_side and rho held [C]."""
-        return self.supply_temperature + balance.heat_to_oil / (balance.density * self.specific_heat
-                                                                * balance.side_flow)
+        return self.supply_temperature + balance.heat_to_oil / (
+            balance.density * self.specific_heat * balance.side_flow
+        )
 
 
 class EffectiveTemperature:
@@ -173,10 +180,12 @@ class EffectiveTemperature:
             return last.temperature
         limit = self.model.temperature_limit
         if last.residual > 0 and last.temperature >= limit:
-            raise ThermalError(f"the heat balance needs a film temperature above {limit:.1f} C (the limit of "
-                               f"the oil's viscosity data): at {last.temperature:.1f} C the side flow "
-                               f"carries {last.heat_carried:.4g} W of the {last.heat_to_oil:.4g} W into the "
-                               "oil")
+            raise ThermalError(
+                f"the heat balance needs a film temperature above {limit:.1f} C (the limit of "
+                f"the oil's viscosity data): at {last.temperature:.1f} C the side flow "
+                f"carries {last.heat_carried:.4g} W of the {last.heat_to_oil:.4g} W into the "
+                "oil"
+            )
         supply = self.model.supply_temperature
         low = max([b.temperature for b in self.history if b.residual > 0], default=supply)
         high = min([b.temperature for b in self.history if b.residual < 0], default=None)
@@ -204,8 +213,9 @@ class EffectiveTemperature:
         return [dataclasses.asdict(b) for b in self.history]
 
     @classmethod
-    def from_state(cls, model: ThermalModel, tolerance: float,
-                   state: list[dict[str, float]]) -> EffectiveTemperature:
+    def from_state(
+        cls, model: ThermalModel, tolerance: float, state: list[dict[str, float]]
+    ) -> EffectiveTemperature:
         """The iteration after the cycles of ``state`` (from ``state()``): the same next temperature."""
         iteration = cls(model, tolerance)
         for values in state:

@@ -19,13 +19,25 @@ def fake_run(directory: Path, scale: float, elastic: str, complete: bool = True)
     """A case directory with a results file in the layout of the run command's."""
     angle = np.linspace(0.0, 720.0, 145)
     h = (5 + 4 * np.cos(np.radians(angle))) * 1e-6 * scale
-    p = 1e6 + 3e8 * np.exp(-((angle - 380) / 20) ** 2) / scale
-    variables = {"h_min": h, "p_max": p, "F_asperity": 100 * np.exp(-((angle - 500) / 60) ** 2) / scale,
-                 "friction_power": 1 + np.sin(np.radians(angle)) ** 2 / scale, "deformation_max": 1e-6 * scale * p / p.max(),
-                 "cavitated_area_ratio": 0.2 + 0.1 * np.cos(np.radians(angle)) ** 2 * scale}
-    ds = xr.Dataset({k: ("crank_angle", v) for k, v in variables.items()}, coords={"crank_angle": angle},
-                    attrs={"status": "complete" if complete else "running", "small_end.elastic": elastic,
-                           "oil.piezoviscosity": "none", "oil.cavitation": "jfo" if scale > 1 else "reynolds"})
+    p = 1e6 + 3e8 * np.exp(-(((angle - 380) / 20) ** 2)) / scale
+    variables = {
+        "h_min": h,
+        "p_max": p,
+        "F_asperity": 100 * np.exp(-(((angle - 500) / 60) ** 2)) / scale,
+        "friction_power": 1 + np.sin(np.radians(angle)) ** 2 / scale,
+        "deformation_max": 1e-6 * scale * p / p.max(),
+        "cavitated_area_ratio": 0.2 + 0.1 * np.cos(np.radians(angle)) ** 2 * scale,
+    }
+    ds = xr.Dataset(
+        {k: ("crank_angle", v) for k, v in variables.items()},
+        coords={"crank_angle": angle},
+        attrs={
+            "status": "complete" if complete else "running",
+            "small_end.elastic": elastic,
+            "oil.piezoviscosity": "none",
+            "oil.cavitation": "jfo" if scale > 1 else "reynolds",
+        },
+    )
     (directory / "results").mkdir(parents=True)
     ds.to_netcdf(directory / "results" / "results.nc")
     return directory
@@ -38,7 +50,9 @@ def test_compare_reports_each_runs_extremes_and_writes_the_plot(tmp_path):
     rigid = fake_run(tmp_path / "rigid", 1.0, "none")
     elastic = fake_run(tmp_path / "elastic", 2.0, "fe")
     png = tmp_path / "compare.png"
-    result = run_cli("compare", str(rigid), str(elastic / "results" / "results.nc"), "--output", str(png), "--json")
+    result = run_cli(
+        "compare", str(rigid), str(elastic / "results" / "results.nc"), "--output", str(png), "--json"
+    )
     assert result.returncode == 0, result.stderr
     rows = json.loads(result.stdout)["runs"]
     assert [r["elastic"] for r in rows] == ["none", "fe"]
@@ -50,7 +64,10 @@ def test_compare_reports_each_runs_extremes_and_writes_the_plot(tmp_path):
             assert row["p_max_max_Pa"] == float(ds.p_max.max())
             assert row["F_asperity_max_N"] == float(ds.F_asperity.max())
             assert row["deformation_max_m"] == float(ds.deformation_max.max())
-            mean = float(np.sum((ds.friction_power.values[1:] + ds.friction_power.values[:-1]) / 2 * np.diff(angle)) / 720)
+            mean = float(
+                np.sum((ds.friction_power.values[1:] + ds.friction_power.values[:-1]) / 2 * np.diff(angle))
+                / 720
+            )
             assert abs(row["friction_power_mean_W"] - mean) <= 1e-12 * mean
             c = ds.cavitated_area_ratio.values
             mean = float(np.sum((c[1:] + c[:-1]) / 2 * np.diff(angle)) / 720)

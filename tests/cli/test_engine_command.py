@@ -35,30 +35,52 @@ def case_dir(tmp_path: Path, toml: str, files: dict[str, str] | None = None) -> 
 
 BAD_CASES = {
     "negative rod mass": ("[engine]\nrod_mass_kg = -0.55\n", {}, ("engine.rod_mass_kg", "allowed: > 0")),
-    "negative piston mass": ("[engine]\npiston_mass_kg = -0.45\n", {},
-                             ("engine.piston_mass_kg", "allowed: > 0")),
-    "negative rod inertia": ("[engine]\nrod_inertia_kg_m2 = -2.2e-3\n", {},
-                             ("engine.rod_inertia_kg_m2", "allowed: > 0")),
+    "negative piston mass": (
+        "[engine]\npiston_mass_kg = -0.45\n",
+        {},
+        ("engine.piston_mass_kg", "allowed: > 0"),
+    ),
+    "negative rod inertia": (
+        "[engine]\nrod_inertia_kg_m2 = -2.2e-3\n",
+        {},
+        ("engine.rod_inertia_kg_m2", "allowed: > 0"),
+    ),
     "rod shorter than crank plus offset": (
-        "[engine]\nrod_length_mm = 45\npin_offset_mm = 3\n", {},
+        "[engine]\nrod_length_mm = 45\npin_offset_mm = 3\n",
+        {},
         ("engine.rod_length_mm", "crank_radius_mm + |pin_offset_mm| = 46"),
     ),
-    "missing pressure file": ('[gas]\npressure_file = "p.csv"\n', {},
-                              ("gas.pressure_file", "file not found")),
-    "non-monotone crank angles": ('[gas]\npressure_file = "p.csv"\n',
-                                  {"p.csv": "crank_angle_deg,pressure_bar\n0,1\n20,2\n10,3\n"},
-                                  ("gas.pressure_file", "line 4", "strictly increasing")),
-    "NaN in the trace": ('[gas]\npressure_file = "p.csv"\n',
-                         {"p.csv": "crank_angle_deg,pressure_bar\n0,1\n10,NaN\n20,3\n"},
-                         ("gas.pressure_file", "line 3", "not finite")),
-    "wrong columns": ('[gas]\npressure_file = "p.csv"\n', {"p.csv": "deg,p\n0,1\n10,2\n"},
-                      ("gas.pressure_file", "line 1", "expected crank_angle_deg,pressure_bar")),
-    "NaN in a speed trace": ('[engine]\nspeed_file = "n.csv"\n',
-                             {"n.csv": "crank_angle_deg,speed_rpm\n0,2000\n90,nan\n"},
-                             ("engine.speed_file", "line 3", "not finite")),
+    "missing pressure file": (
+        '[gas]\npressure_file = "p.csv"\n',
+        {},
+        ("gas.pressure_file", "file not found"),
+    ),
+    "non-monotone crank angles": (
+        '[gas]\npressure_file = "p.csv"\n',
+        {"p.csv": "crank_angle_deg,pressure_bar\n0,1\n20,2\n10,3\n"},
+        ("gas.pressure_file", "line 4", "strictly increasing"),
+    ),
+    "NaN in the trace": (
+        '[gas]\npressure_file = "p.csv"\n',
+        {"p.csv": "crank_angle_deg,pressure_bar\n0,1\n10,NaN\n20,3\n"},
+        ("gas.pressure_file", "line 3", "not finite"),
+    ),
+    "wrong columns": (
+        '[gas]\npressure_file = "p.csv"\n',
+        {"p.csv": "deg,p\n0,1\n10,2\n"},
+        ("gas.pressure_file", "line 1", "expected crank_angle_deg,pressure_bar"),
+    ),
+    "NaN in a speed trace": (
+        '[engine]\nspeed_file = "n.csv"\n',
+        {"n.csv": "crank_angle_deg,speed_rpm\n0,2000\n90,nan\n"},
+        ("engine.speed_file", "line 3", "not finite"),
+    ),
     "unknown key": ("[engine]\nbore_cm = 8.6\n", {}, ("unknown key engine.bore_cm",)),
-    "peak below motored": ("[gas]\npeak_pressure_bar = 5\n", {},
-                           ("gas.peak_pressure_bar = 5", "motored peak")),
+    "peak below motored": (
+        "[gas]\npeak_pressure_bar = 5\n",
+        {},
+        ("gas.peak_pressure_bar = 5", "motored peak"),
+    ),
 }
 
 

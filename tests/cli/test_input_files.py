@@ -22,14 +22,22 @@ pytestmark = pytest.mark.serial
 
 #: bytes that are not UTF-8 (0xff never occurs in UTF-8; 0xc3 0x28 is a broken two-byte sequence)
 GARBAGE = bytes(range(256)) * 4 + b"\xff\xfe\xc3\x28"
-LATIN1 = "crank_angle_deg,pressure_bar\n0,1.0\n# Zylinderdruck gemessen (M\u00fcller)\n720,1.0\n".encode("latin-1")
+LATIN1 = "crank_angle_deg,pressure_bar\n0,1.0\n# Zylinderdruck gemessen (M\u00fcller)\n720,1.0\n".encode(
+    "latin-1"
+)
 
 
 def solver(*arguments: str, cwd: Path) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "LC_ALL": "C"}  # a C locale must not change the reading
     env.pop("OMPI_COMM_WORLD_SIZE", None)
-    return subprocess.run([sys.executable, "-m", "solver", *arguments], cwd=cwd, capture_output=True, text=True,
-                          timeout=300, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "solver", *arguments],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
 
 
 def listing(directory: Path) -> list[str]:
@@ -70,17 +78,20 @@ def test_speed_trace_that_is_not_utf8(tmp_path):
 
 def test_utf8_trace_with_a_byte_order_mark_is_read(tmp_path):
     """The reverse: a UTF-8 file (with a BOM and non-ASCII comments) is accepted under a C locale."""
-    (tmp_path / "case.toml").write_text('# Zylinderdruck \u00fcber dem Kurbelwinkel\n[gas]\npressure_file = "p.csv"\n',
-                                        encoding="utf-8")
+    (tmp_path / "case.toml").write_text(
+        '# Zylinderdruck \u00fcber dem Kurbelwinkel\n[gas]\npressure_file = "p.csv"\n', encoding="utf-8"
+    )
     rows = "".join(f"{a},{1.0 + 50.0 * (a == 360)}\n" for a in range(0, 721, 10))
-    (tmp_path / "p.csv").write_bytes("\ufeffcrank_angle_deg,pressure_bar\n# gemessen \u00b0\n".encode() + rows.encode())
+    (tmp_path / "p.csv").write_bytes(
+        "\ufeffcrank_angle_deg,pressure_bar\n# gemessen \u00b0\n".encode() + rows.encode()
+    )
     result = solver("engine", str(tmp_path), "--output", str(tmp_path / "out"), "--json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
 
 
 def test_binary_sweep_file(tmp_path):
     sweep = tmp_path / "study.toml"
-    sweep.write_bytes(b"[sweep]\nbase = \"x\"\n" + GARBAGE)
+    sweep.write_bytes(b'[sweep]\nbase = "x"\n' + GARBAGE)
     before = listing(tmp_path)
     result = solver("batch", str(sweep), "--list", cwd=tmp_path)
     assert_one_line_error(result, "study.toml")

@@ -42,15 +42,27 @@ def double_pendulum(stiff_joint: LinearClearanceJoint | None = None) -> Mechanis
 def initial_state(angle_1: float, angle_2: float) -> tuple[np.ndarray, np.ndarray]:
     """Both bars at rest at the given angles from +x, assembled exactly."""
     end = L1 * np.array([math.cos(angle_1), math.sin(angle_1)])
-    q = np.array([L1 / 2 * math.cos(angle_1), L1 / 2 * math.sin(angle_1), angle_1,
-                  end[0] + L2 / 2 * math.cos(angle_2), end[1] + L2 / 2 * math.sin(angle_2), angle_2])
+    q = np.array(
+        [
+            L1 / 2 * math.cos(angle_1),
+            L1 / 2 * math.sin(angle_1),
+            angle_1,
+            end[0] + L2 / 2 * math.cos(angle_2),
+            end[1] + L2 / 2 * math.sin(angle_2),
+            angle_2,
+        ]
+    )
     return q, np.zeros(6)
 
 
 def energy(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """Total mechanical energy (J) of each state, written out from the definitions."""
-    kinetic = 0.5 * (M1 * (qd[:, 0] ** 2 + qd[:, 1] ** 2) + M1 * L1**2 / 12.0 * qd[:, 2] ** 2
-                     + M2 * (qd[:, 3] ** 2 + qd[:, 4] ** 2) + M2 * L2**2 / 12.0 * qd[:, 5] ** 2)
+    kinetic = 0.5 * (
+        M1 * (qd[:, 0] ** 2 + qd[:, 1] ** 2)
+        + M1 * L1**2 / 12.0 * qd[:, 2] ** 2
+        + M2 * (qd[:, 3] ** 2 + qd[:, 4] ** 2)
+        + M2 * L2**2 / 12.0 * qd[:, 5] ** 2
+    )
     return kinetic + G * (M1 * q[:, 1] + M2 * q[:, 4])
 
 
@@ -75,8 +87,16 @@ def test_energy_of_the_free_double_pendulum_is_conserved_to_the_tolerance(method
     q0, qd0 = initial_state(0.0, 0.5)
     errors = []
     for rtol in rtols:
-        run = integrate(mechanism, q0, qd0, (0.0, t_end), method=method, rtol=rtol, atol=1e-2 * rtol,
-                        projection=projection)
+        run = integrate(
+            mechanism,
+            q0,
+            qd0,
+            (0.0, t_end),
+            method=method,
+            rtol=rtol,
+            atol=1e-2 * rtol,
+            projection=projection,
+        )
         e = energy(run.q, run.qd)
         errors.append(np.max(np.abs(e - e[0])) / ENERGY_SCALE)
         assert errors[-1] < 10.0 * rtol, (rtol, errors[-1])
@@ -102,8 +122,10 @@ def test_constraint_drift_with_baumgarte_and_with_projection(record_property):
 
     free = drift(method="RK45")
     baumgarte = drift(method="RK45", alpha=10.0, beta=10.0)
-    projected = {method: drift(method=method, projection=True, t_end=10.0 if method != "ESDIRK32" else 2.0)
-                 for method in ("RK45", "BDF", "ESDIRK32")}
+    projected = {
+        method: drift(method=method, projection=True, t_end=10.0 if method != "ESDIRK32" else 2.0)
+        for method in ("RK45", "BDF", "ESDIRK32")
+    }
     record_property("drift_none_m", max(free[:2]))
     record_property("drift_baumgarte_m", max(baumgarte[:2]))
     for method, values in projected.items():
@@ -131,12 +153,22 @@ def test_implicit_integrator_takes_accuracy_sized_steps_on_a_very_stiff_joint(st
     q0, qd0 = initial_state(-math.pi / 2 + 0.6, -math.pi / 2 + 0.3)
     t_end, rtol = 1.0, 1e-6
     outputs = np.linspace(0.0, t_end, 11)
-    reference = integrate(double_pendulum(), q0, qd0, (0.0, t_end), method="DOP853", rtol=1e-12, atol=1e-14,
-                          t_eval=outputs)
-    ideal = integrate(double_pendulum(), q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=rtol,
-                      atol=1e-2 * rtol)
-    stiff = integrate(double_pendulum(LinearClearanceJoint(stiffness, damping)), q0, qd0, (0.0, t_end),
-                      method="ESDIRK32", rtol=rtol, atol=1e-2 * rtol, t_eval=outputs)
+    reference = integrate(
+        double_pendulum(), q0, qd0, (0.0, t_end), method="DOP853", rtol=1e-12, atol=1e-14, t_eval=outputs
+    )
+    ideal = integrate(
+        double_pendulum(), q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=rtol, atol=1e-2 * rtol
+    )
+    stiff = integrate(
+        double_pendulum(LinearClearanceJoint(stiffness, damping)),
+        q0,
+        qd0,
+        (0.0, t_end),
+        method="ESDIRK32",
+        rtol=rtol,
+        atol=1e-2 * rtol,
+        t_eval=outputs,
+    )
     explicit_bound = t_end * damping / (3.3 * M2)
     assert stiff.n_steps <= 2.0 * ideal.n_steps
     assert stiff.n_steps < 1e-3 * explicit_bound
@@ -157,11 +189,23 @@ def test_simplified_newton_with_kept_jacobian_gives_the_same_solution_with_fewer
     q0, qd0 = initial_state(-math.pi / 2 + 0.6, -math.pi / 2 + 0.3)
     t_end, rtol = 1.0, 1e-6
     outputs = np.linspace(0.0, t_end, 11)
-    reference = integrate(double_pendulum(), q0, qd0, (0.0, t_end), method="DOP853", rtol=1e-12, atol=1e-14,
-                          t_eval=outputs)
-    runs = {reuse: integrate(double_pendulum(LinearClearanceJoint(1e8, 1e4)), q0, qd0, (0.0, t_end),
-                             method="ESDIRK32", rtol=rtol, atol=1e-2 * rtol, t_eval=outputs, jacobian_reuse=reuse)
-            for reuse in (False, True)}
+    reference = integrate(
+        double_pendulum(), q0, qd0, (0.0, t_end), method="DOP853", rtol=1e-12, atol=1e-14, t_eval=outputs
+    )
+    runs = {
+        reuse: integrate(
+            double_pendulum(LinearClearanceJoint(1e8, 1e4)),
+            q0,
+            qd0,
+            (0.0, t_end),
+            method="ESDIRK32",
+            rtol=rtol,
+            atol=1e-2 * rtol,
+            t_eval=outputs,
+            jacobian_reuse=reuse,
+        )
+        for reuse in (False, True)
+    }
     full, kept = runs[False], runs[True]
     assert np.max(np.abs(kept.q - reference.q)) < 100.0 * rtol * (L1 + L2)
     assert kept.n_jacobian_evaluations <= full.n_jacobian_evaluations / 2
@@ -185,8 +229,17 @@ def test_on_step_is_called_once_per_accepted_step_after_its_last_stage():
     calls: list[tuple[float, float]] = []  # (time of the call, time of the last force evaluation)
     q0, qd0 = initial_state(-math.pi / 2 + 0.6, -math.pi / 2 + 0.3)
     t_end = 0.2
-    run = integrate(double_pendulum(Recording(1e10, 1e6)), q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=1e-6,
-                    atol=1e-8, first_step=0.1, on_step=lambda t: calls.append((t, evaluations[-1])))
+    run = integrate(
+        double_pendulum(Recording(1e10, 1e6)),
+        q0,
+        qd0,
+        (0.0, t_end),
+        method="ESDIRK32",
+        rtol=1e-6,
+        atol=1e-8,
+        first_step=0.1,
+        on_step=lambda t: calls.append((t, evaluations[-1])),
+    )
     assert run.n_rejected > 0
     assert len(calls) == run.n_steps
     times = np.array([c[0] for c in calls])
@@ -212,8 +265,17 @@ def test_stage_values_are_integrated_by_the_methods_quadrature_over_accepted_ste
     q0, qd0 = initial_state(-math.pi / 2 + 0.6, -math.pi / 2 + 0.3)
     t_end = 0.5
 
-    run = integrate(mechanism, q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=1e-6, atol=1e-8, first_step=0.2,
-                    stage_values=lambda t, y, qdd, lam: np.array([1.0, t, t**2, t**3]))
+    run = integrate(
+        mechanism,
+        q0,
+        qd0,
+        (0.0, t_end),
+        method="ESDIRK32",
+        rtol=1e-6,
+        atol=1e-8,
+        first_step=0.2,
+        stage_values=lambda t, y, qdd, lam: np.array([1.0, t, t**2, t**3]),
+    )
     assert run.n_rejected > 0
     exact = np.array([t_end, t_end**2 / 2, t_end**3 / 3, t_end**4 / 4])
     errors = np.abs(run.stage_integral - exact) / exact
@@ -223,7 +285,9 @@ def test_stage_values_are_integrated_by_the_methods_quadrature_over_accepted_ste
     def powers(t, y, qdd, lam):
         q, qd = y[:6], y[6:]
         kin = element.kinematics(q, qd)
-        dissipated = joint.damping * float(kin.ecc_rate @ kin.ecc_rate) + joint.rotational_damping * kin.omega_rel**2
+        dissipated = (
+            joint.damping * float(kin.ecc_rate @ kin.ecc_rate) + joint.rotational_damping * kin.omega_rel**2
+        )
         drift = -float(lam @ (mechanism.jacobian(q, t) @ qd + mechanism.phi_t(q, t)))
         return np.array([dissipated, drift])
 
@@ -233,8 +297,16 @@ def test_stage_values_are_integrated_by_the_methods_quadrature_over_accepted_ste
 
     errors = []
     for rtol in (1e-6, 1e-8):
-        run = integrate(mechanism, q0, qd0, (0.0, t_end), method="ESDIRK32", rtol=rtol, atol=1e-2 * rtol,
-                        stage_values=powers)
+        run = integrate(
+            mechanism,
+            q0,
+            qd0,
+            (0.0, t_end),
+            method="ESDIRK32",
+            rtol=rtol,
+            atol=1e-2 * rtol,
+            stage_values=powers,
+        )
         dissipated, drift = run.stage_integral
         change = total_energy(run.q[-1], run.qd[-1]) - total_energy(run.q[0], run.qd[0])
         assert dissipated > 1000.0 * rtol * ENERGY_SCALE  # 100 x the bound below: not trivially small

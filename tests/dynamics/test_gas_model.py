@@ -68,8 +68,14 @@ def test_gas_exchange_pressures_are_the_given_constants():
 def test_heat_release_fraction_rises_monotonically_from_zero_to_one(a, m):
     """x_b = 0 up to the start, non-decreasing, = 1 from start + duration on; halfway it is the
     normalised Wiebe value (1 - exp(-a 0.5^(m+1))) / (1 - exp(-a)) (Heywood 1988, eq. 9.23, normalised)."""
-    model = SingleZoneModel(geometry=geometry(), combustion_start=math.radians(345.0),
-                            combustion_duration=math.radians(55.0), wiebe_a=a, wiebe_m=m, heat_release=1.0)
+    model = SingleZoneModel(
+        geometry=geometry(),
+        combustion_start=math.radians(345.0),
+        combustion_duration=math.radians(55.0),
+        wiebe_a=a,
+        wiebe_m=m,
+        heat_release=1.0,
+    )
     theta = np.radians(np.linspace(0.0, 720.0, 72001)[:-1])  # one cycle; 720 deg starts the next
     x_b = model.burn_fraction(theta)
     assert np.all(np.diff(x_b) >= 0.0)
@@ -152,11 +158,15 @@ def test_trace_interpolates_its_points_periodically(tmp_path):
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("crank_angle_deg,pressure_bar\n0,1\n10,2\n10,3\n",
-         r"line 4: crank angles must be strictly increasing"),
+        (
+            "crank_angle_deg,pressure_bar\n0,1\n10,2\n10,3\n",
+            r"line 4: crank angles must be strictly increasing",
+        ),
         ("crank_angle_deg,pressure_bar\n0,1\n10,nan\n20,3\n", r"line 3: pressure_bar = nan is not finite"),
-        ("angle,pressure\n0,1\n10,2\n",
-         r"line 1: header is 'angle,pressure', expected crank_angle_deg,pressure_bar"),
+        (
+            "angle,pressure\n0,1\n10,2\n",
+            r"line 1: header is 'angle,pressure', expected crank_angle_deg,pressure_bar",
+        ),
         ("crank_angle_deg,pressure_bar\n0,1\n10,2,3\n", r"line 3: expected 2 columns"),
         ("crank_angle_deg,pressure_bar\n0,1\n10,abc\n", r"line 3: '10,abc' is not two numbers"),
         ("crank_angle_deg,pressure_bar\n0,1\n800,2\n", r"line 3: crank_angle_deg = 800 is out of range"),
@@ -179,8 +189,11 @@ def test_missing_trace_file(tmp_path):
         load_pressure_trace(tmp_path / "nowhere.csv")
 
 
-SMOOTH = dict(exhaust_opening=math.radians(490.0), blowdown_duration=math.radians(70.0),
-              valve_overlap=math.radians(40.0))
+SMOOTH = dict(
+    exhaust_opening=math.radians(490.0),
+    blowdown_duration=math.radians(70.0),
+    valve_overlap=math.radians(40.0),
+)
 
 
 def test_gas_exchange_with_blowdown_and_overlap_has_no_jump():
@@ -230,10 +243,18 @@ def test_scalar_pressure_equals_the_array_pressure(smooth):
     and at the phase boundaries (intake closing at 180 deg, the combustion's start and end, the
     exhaust opening, the blowdown's end, the overlap)."""
     model = single_zone_model(geometry(), peak_pressure=60e5, **(SMOOTH if smooth else {}))
-    edges = [math.pi, model.combustion_start, model.combustion_start + model.combustion_duration,
-             model.exhaust_opening, model.exhaust_opening + model.blowdown_duration, 4 * math.pi - 0.2, 0.2]
-    theta = np.concatenate([np.linspace(-0.5, 8 * math.pi, 7001), edges, np.nextafter(edges, 0.0),
-                            np.nextafter(edges, 10.0)])
+    edges = [
+        math.pi,
+        model.combustion_start,
+        model.combustion_start + model.combustion_duration,
+        model.exhaust_opening,
+        model.exhaust_opening + model.blowdown_duration,
+        4 * math.pi - 0.2,
+        0.2,
+    ]
+    theta = np.concatenate(
+        [np.linspace(-0.5, 8 * math.pi, 7001), edges, np.nextafter(edges, 0.0), np.nextafter(edges, 10.0)]
+    )
     array = model.pressure(theta)
     scalar = np.array([model.pressure(float(t)) for t in theta])
     assert np.max(np.abs(scalar - array) / array) <= 4e-16

@@ -29,7 +29,14 @@ def test_short_bearing_rotation_is_ocvirk(eps):
     omega = 300.0
     f = joint.forces(np.array([eps * C, 0.0]), np.zeros(2), omega, 0.0)
     U = R * omega
-    load = MU * U * B**3 * eps / (4 * C**2 * (1 - eps**2) ** 2) * math.sqrt(math.pi**2 * (1 - eps**2) + 16 * eps**2)
+    load = (
+        MU
+        * U
+        * B**3
+        * eps
+        / (4 * C**2 * (1 - eps**2) ** 2)
+        * math.sqrt(math.pi**2 * (1 - eps**2) + 16 * eps**2)
+    )
     assert math.hypot(*f.force) == pytest.approx(load, rel=2e-5)
     attitude = math.atan2(f.force[1], -f.force[0])  # load line opposite the film force
     assert abs(attitude) == pytest.approx(math.atan(math.pi * math.sqrt(1 - eps**2) / (4 * eps)), rel=2e-5)
@@ -48,16 +55,25 @@ def test_short_bearing_pure_squeeze_closed_form():
     joint = ShortBearingJoint(radius=R, width=B, clearance=C, viscosity=MU)
     eps, rate = 0.5, 1e-3  # m/s
     f = joint.forces(np.array([eps * C, 0.0]), np.array([rate, 0.0]), 0.0, 0.0)
-    integral = quad(lambda th: math.cos(th) ** 2 / (1 - eps * math.cos(th)) ** 3, -math.pi / 2, math.pi / 2,
-                    epsabs=0, epsrel=1e-12)[0]
+    integral = quad(
+        lambda th: math.cos(th) ** 2 / (1 - eps * math.cos(th)) ** 3,
+        -math.pi / 2,
+        math.pi / 2,
+        epsabs=0,
+        epsrel=1e-12,
+    )[0]
     assert f.force[0] == pytest.approx(-MU * B**3 * R * rate / C**3 * integral, rel=1e-8)
     assert abs(f.force[1]) < 1e-9 * abs(f.force[0])
 
 
-@pytest.mark.parametrize("joint", [
-    ShortBearingJoint(radius=R, width=B, clearance=C, viscosity=MU),
-    DryContactJoint(radius=R, clearance=C, stiffness=hertz_line_stiffness(R, C, 210e9, 0.3, 115e9, 0.33)),
-], ids=["short-bearing", "dry"])
+@pytest.mark.parametrize(
+    "joint",
+    [
+        ShortBearingJoint(radius=R, width=B, clearance=C, viscosity=MU),
+        DryContactJoint(radius=R, clearance=C, stiffness=hertz_line_stiffness(R, C, 210e9, 0.3, 115e9, 0.33)),
+    ],
+    ids=["short-bearing", "dry"],
+)
 def test_jacobian_matches_finite_differences(joint):
     """Complex-step Jacobians against central differences (relative steps 1e-6): 1e-5 of each row."""
     ecc = np.array([0.6, -0.9]) * C if isinstance(joint, DryContactJoint) else np.array([0.3, -0.5]) * C
@@ -69,8 +85,10 @@ def test_jacobian_matches_finite_differences(joint):
         zp, zm = z.copy(), z.copy()
         zp[k] += h
         zm[k] -= h
-        J_fd[:, k] = (_outputs(joint.forces(zp[:2], zp[2:4], zp[4], 0.0))
-                      - _outputs(joint.forces(zm[:2], zm[2:4], zm[4], 0.0))) / (2 * h)
+        J_fd[:, k] = (
+            _outputs(joint.forces(zp[:2], zp[2:4], zp[4], 0.0))
+            - _outputs(joint.forces(zm[:2], zm[2:4], zm[4], 0.0))
+        ) / (2 * h)
     for row in range(4):
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * np.abs(J_fd[row]).max()
 
@@ -99,8 +117,12 @@ def test_film_joint_approaches_short_bearing():
     from solver.film.bearing import Bearing, FilmModel
 
     short = ShortBearingJoint(radius=R, width=B, clearance=C, viscosity=MU)
-    with FilmModel(Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="none"), MPI.COMM_SELF,
-                   omega_ref=300.0, mesh_size=B / R / 10) as model:
+    with FilmModel(
+        Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="none"),
+        MPI.COMM_SELF,
+        omega_ref=300.0,
+        mesh_size=B / R / 10,
+    ) as model:
         film = FilmJoint(model)
         for z in [(0.5 * C, 0.0, 0.0, 0.0, 300.0), (0.3 * C, -0.4 * C, 0.2 * C * 300, 0.1 * C * 300, -200.0)]:
             a = short.forces(np.array(z[:2]), np.array(z[2:4]), z[4], 0.0)
@@ -124,10 +146,19 @@ def test_film_moment_balance():
     from solver.film.surface import Surface
 
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
-    with FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none"), MPI.COMM_SELF,
-                   omega_ref=300.0, mesh_size=0.1, contact=surface.contact(), slip_regularisation=1e-6) as model:
+    with FilmModel(
+        Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none"),
+        MPI.COMM_SELF,
+        omega_ref=300.0,
+        mesh_size=0.1,
+        contact=surface.contact(),
+        slip_regularisation=1e-6,
+    ) as model:
         film = FilmJoint(model)
-        for z in [(0.5 * C, 0.0, 0.0, 0.0, 300.0), (0.6 * C, -0.75 * C, 0.2 * C * 300, 0.1 * C * 300, -200.0)]:
+        for z in [
+            (0.5 * C, 0.0, 0.0, 0.0, 300.0),
+            (0.6 * C, -0.75 * C, 0.2 * C * 300, 0.1 * C * 300, -200.0),
+        ]:
             f = film.forces(np.array(z[:2]), np.array(z[2:4]), z[4], 0.0)
             assert film.last_result.asperity_load > 0 or z[0] == 0.5 * C
             e_cross_F = z[0] * f.force[1] - z[1] * f.force[0]

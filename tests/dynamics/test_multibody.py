@@ -168,6 +168,7 @@ def test_linear_joint_jacobian_matches_finite_differences():
 
 def test_applied_force_and_torque_generalized_forces_and_jacobians():
     """Q_phi = (A s') x F by hand; dQ/dq, dQ/dqd against central differences."""
+
     def force(t, q, qd):
         return np.array([q[0] ** 2 * qd[5], math.sin(q[5])])
 
@@ -227,8 +228,13 @@ def test_projection_lands_on_the_manifold_with_a_minimal_correction():
     space of Phi_q (least-norm; each iterate's correction is orthogonal to its own null space, so a
     second-order part ~ |offset|^2 remains: bound 10 |offset|^2, against ~|offset| = 1e-3 if it were
     not least-norm). Then Phi_q qd + Phi_t = 0 with an exactly orthogonal velocity correction."""
-    mechanism = Mechanism(BODIES[:2], (Revolute(0, (-0.5, 0.0), None, (0.0, 0.0), name="g"),
-                                       Revolute(0, (0.5, 0.0), 1, (-0.4, 0.0), name="r")))
+    mechanism = Mechanism(
+        BODIES[:2],
+        (
+            Revolute(0, (-0.5, 0.0), None, (0.0, 0.0), name="g"),
+            Revolute(0, (0.5, 0.0), 1, (-0.4, 0.0), name="r"),
+        ),
+    )
     exact = np.array([0.5, 0.0, 0.0, 1.4, 0.0, 0.0])
     q0 = exact + 1e-3 * RNG.normal(size=6)
     q = project_positions(mechanism, q0, 0.0)
@@ -243,8 +249,13 @@ def test_projection_lands_on_the_manifold_with_a_minimal_correction():
 
 def test_projection_of_an_impossible_configuration_raises():
     """Two ground pins 2 m apart on a 1 m bar cannot be assembled."""
-    mechanism = Mechanism((BODIES[0],), (Revolute(0, (-0.5, 0.0), None, (0.0, 0.0), name="left"),
-                                         Revolute(0, (0.5, 0.0), None, (2.0, 0.0), name="right")))
+    mechanism = Mechanism(
+        (BODIES[0],),
+        (
+            Revolute(0, (-0.5, 0.0), None, (0.0, 0.0), name="left"),
+            Revolute(0, (0.5, 0.0), None, (2.0, 0.0), name="right"),
+        ),
+    )
     with pytest.raises(MechanismError, match="did not converge"):
         project_positions(mechanism, np.zeros(3), 0.0)
 
@@ -287,8 +298,15 @@ def test_error_controlled_integrators_converge_on_a_harmonic_oscillator(method):
     t_end = 3 * 2 * math.pi / omega
     errors = []
     for rtol in (1e-5, 1e-8):
-        run = integrate(mechanism, np.array([0.01, 0.0, 0.0]), np.zeros(3), (0.0, t_end), method=method,
-                        rtol=rtol, atol=1e-3 * rtol * 0.01)
+        run = integrate(
+            mechanism,
+            np.array([0.01, 0.0, 0.0]),
+            np.zeros(3),
+            (0.0, t_end),
+            method=method,
+            rtol=rtol,
+            atol=1e-3 * rtol * 0.01,
+        )
         errors.append(np.max(np.abs(run.q[:, 0] - 0.01 * np.cos(omega * run.t))))
     assert errors[1] < errors[0] / 100.0
     assert errors[1] < 1e-6 * 0.01

@@ -40,8 +40,10 @@ def closed_form(theta, omega, epsilon, F_gas, *, r, l, a, l_g, m_rod, J_rod, m_p
     u = np.stack([np.cos(beta), np.sin(beta)], axis=-1)  # rod axis, big end -> small end
     n = np.stack([-np.sin(beta), np.cos(beta)], axis=-1)
     B = r * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
-    a_B = r * (epsilon[:, None] * np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
-               - (omega**2)[:, None] * np.stack([np.cos(theta), np.sin(theta)], axis=-1))
+    a_B = r * (
+        epsilon[:, None] * np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
+        - (omega**2)[:, None] * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+    )
     G = B + l_g * u
     a_G = a_B + l_g * (beta_ddot[:, None] * n - (beta_dot**2)[:, None] * u)
     gravity = np.array([-g, 0.0])
@@ -56,18 +58,36 @@ def closed_form(theta, omega, epsilon, F_gas, *, r, l, a, l_g, m_rod, J_rod, m_p
     big_end = m_rod * (a_G - gravity) - pin  # force of the crankpin on the rod
     torque = J_crank * epsilon + cross(B, big_end)  # crank: J eps = T + B x (-big_end)
     main_bearing = -big_end + m_crank * gravity  # crank on bearing = -(bearing on crank)
-    return {"x": x, "v": v, "acc": acc, "rod_angle": beta, "pin": pin, "big_end": big_end,
-            "main_bearing": main_bearing, "side_thrust": pin[:, 1], "torque": torque}
+    return {
+        "x": x,
+        "v": v,
+        "acc": acc,
+        "rod_angle": beta,
+        "pin": pin,
+        "big_end": big_end,
+        "main_bearing": main_bearing,
+        "side_thrust": pin[:, 1],
+        "torque": torque,
+    }
 
 
 def reference_for(cycle, engine):
     theta = np.radians(cycle.crank_angle)
     return closed_form(
-        theta, engine.crank_motion.speed_at(theta), engine.crank_motion.acceleration_at(theta),
+        theta,
+        engine.crank_motion.speed_at(theta),
+        engine.crank_motion.acceleration_at(theta),
         cycle.gas_force,
-        r=engine.crank_radius, l=engine.rod_length, a=engine.pin_offset, l_g=engine.rod_cg_from_big_end,
-        m_rod=engine.rod_mass, J_rod=engine.rod_inertia, m_pis=engine.piston_mass, m_crank=engine.crank_mass,
-        J_crank=engine.crank_inertia, g=engine.gravity,
+        r=engine.crank_radius,
+        l=engine.rod_length,
+        a=engine.pin_offset,
+        l_g=engine.rod_cg_from_big_end,
+        m_rod=engine.rod_mass,
+        J_rod=engine.rod_inertia,
+        m_pis=engine.piston_mass,
+        m_crank=engine.crank_mass,
+        J_crank=engine.crank_inertia,
+        g=engine.gravity,
     )
 
 
@@ -228,12 +248,30 @@ def test_clearance_joint_small_end_deflects_by_the_ideal_pin_force_over_k(tmp_pa
     t0, q0, qd0 = coupled.initial_state(0.0)
     omega = engine.crank_motion.speed
     atol = np.concatenate([np.full(9, 1e-10), np.full(9, 1e-10 * omega)])
-    run = integrate(coupled.mechanism, q0, qd0, (t0, ideal.time[half][-1]), method="ESDIRK32", rtol=1e-6,
-                    atol=atol, alpha=omega, beta=omega, t_eval=ideal.time[half])
+    run = integrate(
+        coupled.mechanism,
+        q0,
+        qd0,
+        (t0, ideal.time[half][-1]),
+        method="ESDIRK32",
+        rtol=1e-6,
+        atol=atol,
+        alpha=omega,
+        beta=omega,
+        t_eval=ideal.time[half],
+    )
     ecc = np.array([coupled.small_end.kinematics(q, qd).ecc for q, qd in zip(run.q, run.qd)])
     rod, force = ideal.rod_angle[half], ideal.small_end_force[half]
-    predicted = np.stack([np.cos(rod) * force[:, 0] + np.sin(rod) * force[:, 1],
-                          -np.sin(rod) * force[:, 0] + np.cos(rod) * force[:, 1]], axis=1) / stiffness
+    predicted = (
+        np.stack(
+            [
+                np.cos(rod) * force[:, 0] + np.sin(rod) * force[:, 1],
+                -np.sin(rod) * force[:, 0] + np.cos(rod) * force[:, 1],
+            ],
+            axis=1,
+        )
+        / stiffness
+    )
     settled = ideal.crank_angle[half] >= 90.0
     assert np.max(np.abs(ecc - predicted)[settled]) < 0.01 * np.max(np.abs(predicted))
     assert ecc[-1, 0] == pytest.approx(9904.45 / stiffness, rel=0.01)

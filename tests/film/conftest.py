@@ -19,10 +19,18 @@ def central_differences(model, base, steps, time_s=None) -> np.ndarray:
     for j in range(5):
         d = np.zeros(5)
         d[j] = steps[j]
-        plus, minus = (Kinematics((base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
-                                  (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
-                                  base.omega_journal + s * d[4], base.omega_bushing) for s in (1, -1))
-        J_fd[:, j] = (_outputs(model.solve(plus, time_s)) - _outputs(model.solve(minus, time_s))) / (2 * steps[j])
+        plus, minus = (
+            Kinematics(
+                (base.ecc[0] + s * d[0], base.ecc[1] + s * d[1]),
+                (base.ecc_rate[0] + s * d[2], base.ecc_rate[1] + s * d[3]),
+                base.omega_journal + s * d[4],
+                base.omega_bushing,
+            )
+            for s in (1, -1)
+        )
+        J_fd[:, j] = (_outputs(model.solve(plus, time_s)) - _outputs(model.solve(minus, time_s))) / (
+            2 * steps[j]
+        )
     return J_fd
 
 

@@ -38,7 +38,9 @@ def sommerfeld(load: float, width: float, speed: float) -> float:
 @pytest.fixture(scope="module", params=[1.0, 0.5], ids=["B/D=1", "B/D=0.5"])
 def rotating_bearing(request):
     width = request.param * 2 * R
-    with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA) as model:
+    with FilmModel(
+        Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA
+    ) as model:
         yield request.param, model
 
 
@@ -56,13 +58,18 @@ def test_rotation_matches_butenschoen(rotating_bearing):
     gets within ~1 % and 1.5 deg. The eccentricity direction is deliberately off the mesh axes.
     """
     ratio, model = rotating_bearing
-    rows = [r for r in _table("butenschoen_rotation.csv") if r["width_to_diameter"] == ratio
-            and 0.2 <= r["eccentricity_ratio"] <= 0.95]
+    rows = [
+        r
+        for r in _table("butenschoen_rotation.csv")
+        if r["width_to_diameter"] == ratio and 0.2 <= r["eccentricity_ratio"] <= 0.95
+    ]
     assert len(rows) >= 8
     direction = 2.2  # rad
     for row in rows:
         eps = row["eccentricity_ratio"]
-        kin = Kinematics((eps * C * math.cos(direction), eps * C * math.sin(direction)), (0.0, 0.0), OMEGA, 0.0)
+        kin = Kinematics(
+            (eps * C * math.cos(direction), eps * C * math.sin(direction)), (0.0, 0.0), OMEGA, 0.0
+        )
         result = model.solve(kin)
         So = sommerfeld(result.load, ratio * 2 * R, OMEGA)
         assert So == pytest.approx(row["So"], rel=0.03), f"eps = {eps}"
@@ -82,12 +89,15 @@ def test_pure_squeeze_matches_butenschoen(inlet):
     """
     rows = _table("butenschoen_squeeze.csv")
     rate = 40.0  # 1/s
-    with FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet=inlet), _self(),
-                   omega_ref=rate) as model:
+    with FilmModel(
+        Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet=inlet), _self(), omega_ref=rate
+    ) as model:
         for row in rows:
             eps = row["eccentricity_ratio"]
             direction = np.array([math.cos(-0.4), math.sin(-0.4)])
-            result = model.solve(Kinematics(tuple(eps * C * direction), tuple(rate * C * direction), 0.0, 0.0))
+            result = model.solve(
+                Kinematics(tuple(eps * C * direction), tuple(rate * C * direction), 0.0, 0.0)
+            )
             So = result.load * (C / R) ** 2 / (2 * R * 2 * R * MU * rate)
             assert So == pytest.approx(row["So"], rel=0.03), f"eps = {eps}"
             # the film pushes the journal back along the line of centres
@@ -104,12 +114,20 @@ def test_short_bearing_limit_matches_ocvirk():
     mesh (10 elements across the half width) adds ~0.2 % (bench/bearing_mesh_convergence.py).
     """
     width = 2 * R / 16
-    with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA) as model:
+    with FilmModel(
+        Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA
+    ) as model:
         for eps in (0.2, 0.4, 0.6):
             result = model.solve(Kinematics((eps * C, 0.0), (0.0, 0.0), OMEGA, 0.0))
             U = R * OMEGA
-            W = MU * U * width**3 * eps / (4 * C**2 * (1 - eps**2) ** 2) * math.sqrt(
-                math.pi**2 * (1 - eps**2) + 16 * eps**2)
+            W = (
+                MU
+                * U
+                * width**3
+                * eps
+                / (4 * C**2 * (1 - eps**2) ** 2)
+                * math.sqrt(math.pi**2 * (1 - eps**2) + 16 * eps**2)
+            )
             assert result.load == pytest.approx(W, rel=0.03), f"eps = {eps}"
 
 
@@ -121,7 +139,9 @@ def test_concentric_friction_torque_is_petroff():
     h = 0.05 R), so the tolerance is 1e-3. The bushing feels the opposite torque.
     """
     width = 2 * R
-    with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA) as model:
+    with FilmModel(
+        Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA
+    ) as model:
         result = model.solve(Kinematics((0.0, 0.0), (0.0, 0.0), OMEGA, 0.0))
     petroff = 2 * math.pi * MU * OMEGA * R**3 * width / C
     assert result.torque_journal == pytest.approx(-petroff, rel=1e-3)
@@ -134,7 +154,9 @@ def test_load_eccentricity_load_round_trip():
     """Load -> equilibrium eccentricity -> load: the film force balances the load to 1e-6 relative,
     and the eccentricity lies where the Butenschoen table puts that So (within 3 % in So)."""
     width = 2 * R
-    with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA) as model:
+    with FilmModel(
+        Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA
+    ) as model:
         So_target = 1.3146  # table: eps = 0.6 at B/D = 1
         load = So_target * width * 2 * R * MU * OMEGA / (C / R) ** 2
         W = (0.3 * load, -math.sqrt(1 - 0.09) * load)
@@ -148,8 +170,10 @@ def test_load_eccentricity_load_round_trip():
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("ratio, eps, motion", [(1 / 8, 0.95, "rotation"), (1 / 8, 0.6, "squeeze"),
-                                                 (1 / 4, 0.95, "squeeze"), (2, 0.95, "rotation")])
+@pytest.mark.parametrize(
+    "ratio, eps, motion",
+    [(1 / 8, 0.95, "rotation"), (1 / 8, 0.6, "squeeze"), (1 / 4, 0.95, "squeeze"), (2, 0.95, "rotation")],
+)
 def test_default_mesh_is_within_one_percent_of_mesh_converged(ratio, eps, motion):
     """At the default element size (film.bearing.default_mesh_size: 0.07 R, and at least 10 elements
     across the half width) the load is within 1 % of its mesh-converged value for any B/D: here the
@@ -161,11 +185,18 @@ def test_default_mesh_is_within_one_percent_of_mesh_converged(ratio, eps, motion
     loads = []
     for refine in (1, 2):
         size = default_mesh_size(width, R) / refine
-        with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), _self(), omega_ref=OMEGA,
-                       mesh_size=size) as model:
+        with FilmModel(
+            Bearing(radius=R, width=width, clearance=C, viscosity=MU),
+            _self(),
+            omega_ref=OMEGA,
+            mesh_size=size,
+        ) as model:
             ecc = (0.0, -eps * C)
-            kin = (Kinematics(ecc, (0.0, 0.0), OMEGA, 0.0) if motion == "rotation"
-                   else Kinematics(ecc, (0.0, -C * OMEGA), 0.0, 0.0))
+            kin = (
+                Kinematics(ecc, (0.0, 0.0), OMEGA, 0.0)
+                if motion == "rotation"
+                else Kinematics(ecc, (0.0, -C * OMEGA), 0.0, 0.0)
+            )
             loads.append(model.solve(kin).load)
     converged = loads[1] + (loads[1] - loads[0]) / 3
     assert loads[0] == pytest.approx(converged, rel=0.01)

@@ -83,8 +83,9 @@ def test_lame_thick_ring_under_uniform_pressure():
     4.9e-3 at h = 0.5 R and 6.7e-4 at h = 0.25 R (about h^3). Tolerances: 1e-2 and 2e-3, and the
     error must fall at least fourfold when h halves."""
     E, nu, b, p = 210e9, 0.3, 0.017, 100e6
-    ring = EyeGeometry(bore_radius=R, width=0.02, bushing_thickness=0.0, eye_outer_radius=b,
-                       E_eye=E, nu_eye=nu)
+    ring = EyeGeometry(
+        bore_radius=R, width=0.02, bushing_thickness=0.0, eye_outer_radius=b, E_eye=E, nu_eye=nu
+    )
     exact = p * R / E * ((R**2 + b**2) / (b**2 - R**2) + nu)
     errors = []
     for h in (0.5 * R, 0.25 * R):
@@ -103,8 +104,15 @@ def test_winkler_layer_on_a_stiff_eye():
     strain (interface moves 15 % of the compression: nu/(1-nu) eps_theta / eps_r ~ +0.2 %), and the
     discretisation (bore elements t and 2t agree to 1e-5). Measured ratio 1.0015; tolerance 5e-3."""
     E_b, nu_b, t, p = 115e9, 0.33, 0.03 * R, 100e6
-    eye_geometry = EyeGeometry(bore_radius=R, width=0.6 * R, bushing_thickness=t, eye_outer_radius=1.5 * R,
-                               E_eye=1000 * E_b, E_bushing=E_b, nu_bushing=nu_b)
+    eye_geometry = EyeGeometry(
+        bore_radius=R,
+        width=0.6 * R,
+        bushing_thickness=t,
+        eye_outer_radius=1.5 * R,
+        E_eye=1000 * E_b,
+        E_bushing=E_b,
+        nu_bushing=nu_b,
+    )
     with ElasticEye(eye_geometry, element_size=0.2 * R, bore_element_size=2 * t, clamp=False) as eye:
         u = eye.displacement(lambda theta, z: p)
         x = eye.V.tabulate_dof_coordinates() * R
@@ -140,8 +148,10 @@ def test_pointwise_reciprocity_of_local_loads():
     with ElasticEye(REFERENCE) as eye:
         for half_angle, half_z in ((math.radians(15), 0.2 * R), (math.radians(10), 0.2 * R / 1.5)):
             # the centres are Constants: one compiled form for all four patches
-            patches = [_bump(fem.Constant(eye.mesh, theta), half_angle, fem.Constant(eye.mesh, z), half_z,
-                             peak=1e6) for theta, z in (A, B)]
+            patches = [
+                _bump(fem.Constant(eye.mesh, theta), half_angle, fem.Constant(eye.mesh, z), half_z, peak=1e6)
+                for theta, z in (A, B)
+            ]
             u_A, u_B = (eye.displacement(p) for p in patches)
             at_A_from_B = _radial_displacement_at(eye, u_B, *A) / _bore_force(eye, patches[1])
             at_B_from_A = _radial_displacement_at(eye, u_A, *B) / _bore_force(eye, patches[0])
@@ -180,9 +190,13 @@ def _guided_ring_coefficient(Phi: float) -> float:
     def integral(f, g):
         return scipy.integrate.quad(lambda phi: f(phi) * g(phi), 0.0, Phi)[0]
 
-    m0, n0 = np.linalg.solve([[integral(basis[0], b) for b in (basis[0], basis[2])],
-                              [integral(basis[2], b) for b in (basis[0], basis[2])]],
-                             [-integral(basis[1], basis[0]), -integral(basis[1], basis[2])])
+    m0, n0 = np.linalg.solve(
+        [
+            [integral(basis[0], b) for b in (basis[0], basis[2])],
+            [integral(basis[2], b) for b in (basis[0], basis[2])],
+        ],
+        [-integral(basis[1], basis[0]), -integral(basis[1], basis[2])],
+    )
     return integral(lambda phi: m0 * basis[0](phi) + basis[1](phi) + n0 * basis[2](phi), math.sin)
 
 
@@ -199,8 +213,9 @@ def test_clamp_holds_the_eye_like_a_clamped_ring():
         u = eye.displacement(bump)
         X, n = ufl.SpatialCoordinate(eye.mesh), ufl.FacetNormal(eye.mesh)
         p = bump(ufl.atan_2(X[1], X[0]), R * X[2])
-        mean_displacement = (fem.assemble_scalar(fem.form(p * ufl.inner(u, -n) * eye.ds_bore))
-                             / fem.assemble_scalar(fem.form(p * eye.ds_bore)))
+        mean_displacement = fem.assemble_scalar(
+            fem.form(p * ufl.inner(u, -n) * eye.ds_bore)
+        ) / fem.assemble_scalar(fem.form(p * eye.ds_bore))
         resultant = 2 * fem.assemble_scalar(fem.form(-p * n[0] * eye.ds_bore)) * R**2  # the whole width
         clamped = fem.locate_dofs_topological(eye.V, 2, eye.facet_tags.find(TAGS["clamp"]))
         U = u.x.array.reshape(-1, 3)
@@ -237,11 +252,15 @@ def test_cache_is_read_back_without_building(tmp_path, monkeypatch):
     for name in ("theta", "z", "areas", "matrix"):
         np.testing.assert_array_equal(getattr(second, name), getattr(first, name))
 
-    keys = {cache_key(RING, 12, 2, 0.5 * R), cache_key(RING, 13, 2, 0.5 * R),
-            cache_key(RING, 12, 3, 0.5 * R), cache_key(RING, 12, 2, 0.4 * R),
-            cache_key(RING, 12, 2, 0.5 * R, clamp=False),
-            cache_key(dataclasses.replace(RING, width=0.021), 12, 2, 0.5 * R),
-            cache_key(dataclasses.replace(RING, shank_half_angle_deg=31.0), 12, 2, 0.5 * R)}
+    keys = {
+        cache_key(RING, 12, 2, 0.5 * R),
+        cache_key(RING, 13, 2, 0.5 * R),
+        cache_key(RING, 12, 3, 0.5 * R),
+        cache_key(RING, 12, 2, 0.4 * R),
+        cache_key(RING, 12, 2, 0.5 * R, clamp=False),
+        cache_key(dataclasses.replace(RING, width=0.021), 12, 2, 0.5 * R),
+        cache_key(dataclasses.replace(RING, shank_half_angle_deg=31.0), 12, 2, 0.5 * R),
+    }
     assert len(keys) == 7
 
     path.write_bytes(b"not an npz file")

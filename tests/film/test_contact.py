@@ -27,8 +27,9 @@ def reference(n: float, H: float) -> float:
 def test_quadrature_and_table_match_reference(n):
     """Quadrature to 1e-9 and the interpolated table (numpy) and Chebyshev form (UFL) to 1e-6
     relative over H in [0, 5] (both tabulate log F on a 0.025 grid / degree-16 fit; measured < 1e-8)."""
-    assert contact.gt_integral(n, 0.0) == pytest.approx(2 ** ((n - 1) / 2) * Gamma((n + 1) / 2) / math.sqrt(2 * math.pi),
-                                                        rel=1e-10)
+    assert contact.gt_integral(n, 0.0) == pytest.approx(
+        2 ** ((n - 1) / 2) * Gamma((n + 1) / 2) / math.sqrt(2 * math.pi), rel=1e-10
+    )
     for H in (0.0, 0.37, 1.0, 1.81, 2.5, 3.3, 4.0, 5.0):
         ref = reference(n, H)
         assert contact.gt_integral(n, H) == pytest.approx(ref, rel=1e-9)
@@ -74,21 +75,30 @@ def test_asperity_density_and_radius_alternative():
     beta = sigma / 0.001
     eta = 0.05 / (beta * sigma)
     a = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6).contact()
-    b = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6, eta_beta_sigma=None, sigma_over_beta=None,
-                asperity_density=eta, asperity_radius=beta).contact()
+    b = Surface(
+        sigma_journal=0.1e-6,
+        sigma_bushing=0.3e-6,
+        eta_beta_sigma=None,
+        sigma_over_beta=None,
+        asperity_density=eta,
+        asperity_radius=beta,
+    ).contact()
     assert b.eta_beta_sigma == pytest.approx(a.eta_beta_sigma, rel=1e-12)
     assert b.sigma_over_beta == pytest.approx(a.sigma_over_beta, rel=1e-12)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(sigma_journal=-1e-7), "sigma_journal"),
-    (dict(sigma_journal=1e-7, peklenik_gamma=0.0), "peklenik_gamma"),
-    (dict(sigma_journal=1e-7, nu_journal=0.5), "nu_journal"),
-    (dict(sigma_journal=1e-7, nu_bushing=-1.0), "nu_bushing"),
-    (dict(sigma_journal=1e-7, E_bushing=-1e9), "E_bushing"),
-    (dict(sigma_journal=1e-7, eta_beta_sigma=0.0), "eta_beta_sigma"),
-    (dict(sigma_journal=1e-7, asperity_friction=-0.1), "asperity_friction"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(sigma_journal=-1e-7), "sigma_journal"),
+        (dict(sigma_journal=1e-7, peklenik_gamma=0.0), "peklenik_gamma"),
+        (dict(sigma_journal=1e-7, nu_journal=0.5), "nu_journal"),
+        (dict(sigma_journal=1e-7, nu_bushing=-1.0), "nu_bushing"),
+        (dict(sigma_journal=1e-7, E_bushing=-1e9), "E_bushing"),
+        (dict(sigma_journal=1e-7, eta_beta_sigma=0.0), "eta_beta_sigma"),
+        (dict(sigma_journal=1e-7, asperity_friction=-0.1), "asperity_friction"),
+    ],
+)
 def test_bad_surface_input(kwargs, name):
     with pytest.raises(InputError, match=name):
         Surface(**kwargs)

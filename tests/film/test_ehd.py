@@ -24,8 +24,12 @@ def _rough():
 
 # a mixed-lubrication state of the engine's small end: rigid h_min = 0.3 um (h/sigma = 0.95), squeeze,
 # both surfaces turning
-MIXED = Kinematics((0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)), (0.05 * C * OMEGA, -0.1 * C * OMEGA),
-                   0.2 * OMEGA, -0.3 * OMEGA)
+MIXED = Kinematics(
+    (0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)),
+    (0.05 * C * OMEGA, -0.1 * C * OMEGA),
+    0.2 * OMEGA,
+    -0.3 * OMEGA,
+)
 
 
 @pytest.mark.serial
@@ -36,8 +40,9 @@ def test_coupled_jacobian_matches_finite_differences_of_the_residual():
     the block's largest entry on these smooth functions (the VI bound is not in the residual);
     tolerance 1e-5 of the block's largest entry."""
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.25, elastic=WinklerLayer(**BRONZE),
-                   **_rough()) as model:
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.25, elastic=WinklerLayer(**BRONZE), **_rough()
+    ) as model:
         model.solve(MIXED)
         film = model._ehd
         rng = np.random.default_rng(1)
@@ -71,11 +76,21 @@ def test_elastic_film_jacobian_matches_finite_differences(rough, film_difference
     if rough:
         base, steps = MIXED, np.array([3e-6 * C] * 2 + [3e-6 * C * OMEGA] * 2 + [3e-6 * OMEGA])
     else:
-        base = Kinematics((0.8 * C * math.cos(1.0), 0.8 * C * math.sin(1.0)), (0.3 * C * OMEGA, -0.2 * C * OMEGA),
-                          OMEGA, 0.3 * OMEGA)
+        base = Kinematics(
+            (0.8 * C * math.cos(1.0), 0.8 * C * math.sin(1.0)),
+            (0.3 * C * OMEGA, -0.2 * C * OMEGA),
+            OMEGA,
+            0.3 * OMEGA,
+        )
         steps = np.array([1e-4 * C] * 2 + [1e-4 * C * OMEGA] * 2 + [1e-4 * OMEGA])
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE),
-                   **(_rough() if rough else {})) as model:
+    with FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=0.1,
+        elastic=WinklerLayer(**BRONZE),
+        **(_rough() if rough else {}),
+    ) as model:
         result = model.solve(base)
         assert result.max_deformation > 0.02 * C  # the deformation matters at this state
         J = model.jacobian().matrix
@@ -93,7 +108,9 @@ def test_winkler_deformation_is_k_times_pressure():
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     t, E, nu = BRONZE["thickness"], BRONZE["E"], BRONZE["nu"]
     k = t * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)) as model:
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)
+    ) as model:
         result = model.solve(Kinematics((0.0, -0.9 * C), (0.0, -0.1 * C * OMEGA), OMEGA, 0.0))
         fields = model.fields_si()
         p, w = fields["pressure"].x.array, fields["deformation"].x.array
@@ -111,7 +128,9 @@ def test_very_stiff_bushing_gives_the_rigid_film():
     stiff = WinklerLayer(thickness=BRONZE["thickness"], E=BRONZE["E"] * 1e9, nu=BRONZE["nu"])
     results = []
     for elastic in (None, stiff):
-        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=elastic, **_rough()) as model:
+        with FilmModel(
+            bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=elastic, **_rough()
+        ) as model:
             results.append(model.solve(MIXED))
     rigid, elastic = results
     for name in ("force", "hydro_force", "asperity_force"):
@@ -128,15 +147,24 @@ def test_the_solve_tolerance_leaves_forces_and_torques_unchanged(monkeypatch):
     the tighter tolerance adds), and the forces and torque agree to 1e-6 of themselves (the residual
     left is 1e-8 of the source times the film's conditioning: 3e-8 measured)."""
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    neighbour = Kinematics((0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)), MIXED.ecc_rate,
-                           MIXED.omega_journal, MIXED.omega_bushing)
-    target = Kinematics((0.97001 * C * math.cos(-1.399), 0.97001 * C * math.sin(-1.399)), MIXED.ecc_rate,
-                        MIXED.omega_journal, MIXED.omega_bushing)
+    neighbour = Kinematics(
+        (0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)),
+        MIXED.ecc_rate,
+        MIXED.omega_journal,
+        MIXED.omega_bushing,
+    )
+    target = Kinematics(
+        (0.97001 * C * math.cos(-1.399), 0.97001 * C * math.sin(-1.399)),
+        MIXED.ecc_rate,
+        MIXED.omega_journal,
+        MIXED.omega_bushing,
+    )
     out = {}
     for tolerance in (ElasticFilm.TOLERANCE, 1e-13):
         monkeypatch.setattr(ElasticFilm, "TOLERANCE", tolerance)
-        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE),
-                       **_rough()) as model:
+        with FilmModel(
+            bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE), **_rough()
+        ) as model:
             model.solve(neighbour)
             out[tolerance] = model.solve(target)
     default, tight = out.values()
@@ -152,12 +180,21 @@ def test_the_jacobian_after_a_one_iteration_solve_is_the_solutions():
     the one after a cold solve of the same state to 1e-6 of each row's largest entry (measured 3e-8,
     the two solutions differing by the solve tolerance; at the start's factorisation 3e-4)."""
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    neighbour = Kinematics((0.97001 * C * math.cos(-1.39999), 0.97001 * C * math.sin(-1.39999)), MIXED.ecc_rate,
-                           MIXED.omega_journal, MIXED.omega_bushing)
-    base = Kinematics((0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)), MIXED.ecc_rate, MIXED.omega_journal,
-                      MIXED.omega_bushing)
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE),
-                   **_rough()) as model:
+    neighbour = Kinematics(
+        (0.97001 * C * math.cos(-1.39999), 0.97001 * C * math.sin(-1.39999)),
+        MIXED.ecc_rate,
+        MIXED.omega_journal,
+        MIXED.omega_bushing,
+    )
+    base = Kinematics(
+        (0.97 * C * math.cos(-1.4), 0.97 * C * math.sin(-1.4)),
+        MIXED.ecc_rate,
+        MIXED.omega_journal,
+        MIXED.omega_bushing,
+    )
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE), **_rough()
+    ) as model:
         model.solve(base)
         cold = model.jacobian().matrix
         model.solve(neighbour)
@@ -196,27 +233,29 @@ def test_deformation_rate_is_implicit_euler_from_the_committed_state(film_differ
     """
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     kin = lambda eps: Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0)  # noqa: E731
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)) as model:
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)
+    ) as model:
         n = model.dofs
         deformation = lambda: model.fields_si()["deformation"].x.array.copy()  # noqa: E731
         steady = model.solve(kin(0.9))
-        state, quasi_static = model.deformation_state(), deformation()
-        model.commit_deformation(state, 0.0)
+        state, quasi_static = model.history_state(), deformation()
+        model.commit_history(state, 0.0)
         again = model.solve(kin(0.9), 1e-4)
         assert np.abs(deformation() - quasi_static).max() <= 1e-8 * np.abs(quasi_static).max()
         assert again.load == pytest.approx(steady.load, rel=1e-8)
         model.solve(kin(0.8))
-        lighter, lighter_w = model.deformation_state(), deformation()
+        lighter, lighter_w = model.history_state(), deformation()
         assert len(lighter) > n  # pressure, then the elastic unknowns
         changes = []
         for dt in (1e-6, 1e-5, 1e-4, 1e3):
-            model.commit_deformation(lighter, 0.0)
+            model.commit_history(lighter, 0.0)
             model.solve(kin(0.9), dt)
             changes.append(np.abs(deformation() - lighter_w).max())
         assert changes[0] < changes[1] < changes[2] < changes[3]
         assert np.abs(deformation() - quasi_static).max() <= 1e-6 * np.abs(quasi_static).max()
         # the Jacobian with the rate term (dt = 1e-5 s: the rate term matters)
-        model.commit_deformation(lighter, 0.0)
+        model.commit_history(lighter, 0.0)
         base = Kinematics((0.3 * C, -0.85 * C), (0.1 * C * OMEGA, -0.2 * C * OMEGA), OMEGA, 0.3 * OMEGA)
         model.solve(base, 1e-5)
         J = model.jacobian().matrix
@@ -237,19 +276,21 @@ def test_a_state_solved_again_at_its_commit_time_keeps_its_rate():
     """
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     kin = lambda eps: Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0)  # noqa: E731
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)) as model:
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE)
+    ) as model:
         model.solve(kin(0.8))
-        lighter = model.deformation_state()
+        lighter = model.history_state()
         quasi_static = model.solve(kin(0.9)).load
-        model.commit_deformation(lighter, 0.0)
+        model.commit_history(lighter, 0.0)
         stepped = model.solve(kin(0.9), 1e-5)
         assert abs(stepped.load - quasi_static) > 1e-2 * quasi_static  # the rate matters at this step
-        model.commit_deformation(model.deformation_state(), 1e-5)
+        model.commit_history(model.history_state(), 1e-5)
         assert model.solve(kin(0.9), 1e-5).load == pytest.approx(stepped.load, rel=1e-8)
         # replayed from 0: the commit at 1e-5 is gone, a solve at 1e-5 steps from the state at 0 again
-        model.commit_deformation(lighter, 0.0)
+        model.commit_history(lighter, 0.0)
         model.solve(kin(0.95), 1e-5)
-        model.commit_deformation(lighter, 0.0)
+        model.commit_history(lighter, 0.0)
         assert model.solve(kin(0.9), 1e-5).load == pytest.approx(stepped.load, rel=1e-8)
 
 
@@ -268,19 +309,24 @@ def test_deformation_rate_is_second_order_in_the_step():
         return Kinematics((0.0, -eps * C), (0.0, -rate * C), OMEGA, 0.0)
 
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, elastic=WinklerLayer(**BRONZE)) as model:
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, elastic=WinklerLayer(**BRONZE)
+    ) as model:
+
         def deformation_at_quarter_period(steps: int) -> np.ndarray:
             model.solve(kin(0.0))
-            model.commit_deformation(model.deformation_state(), 0.0)
+            model.commit_history(model.history_state(), 0.0)
             for k in range(1, steps + 1):
                 t = T / 4 * k / steps
                 model.solve(kin(t), t)
-                model.commit_deformation(model.deformation_state(), t)
+                model.commit_history(model.history_state(), t)
             return model.fields_si()["deformation"].x.array.copy()
 
         reference = deformation_at_quarter_period(640)
-        errors = [np.abs(deformation_at_quarter_period(n) - reference).max() / np.abs(reference).max()
-                  for n in (10, 20, 40)]
+        errors = [
+            np.abs(deformation_at_quarter_period(n) - reference).max() / np.abs(reference).max()
+            for n in (10, 20, 40)
+        ]
     orders = [math.log2(errors[i] / errors[i + 1]) for i in range(2)]
     assert errors[0] < 5e-3
     assert all(abs(order - 2) < 0.3 for order in orders), (errors, orders)
@@ -291,10 +337,12 @@ def coarse_eye(tmp_path_factory):
     """A coarse finite-element compliance of the reference eye (36 x 3 loads, 0.6 R elements: seconds)."""
     from solver.film.compliance import EyeGeometry, eye_compliance
 
-    geometry = EyeGeometry(bore_radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=1.7 * R,
-                           shank_angle_deg=90.0)
-    return eye_compliance(geometry, n_theta=36, n_z=3, element_size=0.6 * R,
-                          cache_dir=tmp_path_factory.mktemp("compliance"))
+    geometry = EyeGeometry(
+        bore_radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=1.7 * R, shank_angle_deg=90.0
+    )
+    return eye_compliance(
+        geometry, n_theta=36, n_z=3, element_size=0.6 * R, cache_dir=tmp_path_factory.mktemp("compliance")
+    )
 
 
 @pytest.mark.serial
@@ -328,8 +376,14 @@ def test_fe_elastic_film_jacobian_matches_finite_differences(coarse_eye, film_di
 
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     base, steps = MIXED, np.array([3e-6 * C] * 2 + [3e-6 * C * OMEGA] * 2 + [3e-6 * OMEGA])
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=ModalCompliance(coarse_eye, 24),
-                   **_rough()) as model:
+    with FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=0.1,
+        elastic=ModalCompliance(coarse_eye, 24),
+        **_rough(),
+    ) as model:
         assert abs(model.solve(base).max_deformation) > 0.05 * C
         J = model.jacobian().matrix
         J_fd = film_differences(model, base, steps)
@@ -363,12 +417,20 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
 
     monkeypatch.setattr(SchurLU, "_factor_film_block", recorded)
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    states = [MIXED] + [Kinematics(tuple(np.array(MIXED.ecc) * f), MIXED.ecc_rate, MIXED.omega_journal,
-                                   MIXED.omega_bushing) for f in (0.99, 0.97, 1.005)]
+    states = [MIXED] + [
+        Kinematics(tuple(np.array(MIXED.ecc) * f), MIXED.ecc_rate, MIXED.omega_journal, MIXED.omega_bushing)
+        for f in (0.99, 0.97, 1.005)
+    ]
     runs = []
     for whole in (False, True):
-        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=ModalCompliance(coarse_eye, 24),
-                       **_rough()) as model:
+        with FilmModel(
+            bearing,
+            MPI.COMM_SELF,
+            omega_ref=OMEGA,
+            mesh_size=0.1,
+            elastic=ModalCompliance(coarse_eye, 24),
+            **_rough(),
+        ) as model:
             assert isinstance(model._ehd.lu, SchurLU)
             if whole:
                 model._ehd.use_whole_lu()
@@ -384,14 +446,18 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
                 lu = model._ehd.lu
                 assert lu.n_formed >= 2 and lu.n_krylov > 0, (lu.n_formed, lu.n_krylov)
             if not whole:  # the modal blocks as dense arrays against the sparse products (1e-12), at the
-                film = model._ehd  # solution's pressure with the deformation removed: the rigid gap, in contact
+                film = (
+                    model._ehd
+                )  # solution's pressure with the deformation removed: the rigid gap, in contact
                 film.residual(np.concatenate([film.state()[: film.n], np.zeros(film.m)]))
                 dense = film.jacobian_matrix().toarray()
                 film.dense = False
                 sparse = film.jacobian_matrix().toarray()
                 film.dense = True
                 assert np.abs(dense - sparse).max() <= 1e-12 * np.abs(sparse).max()
-                assert np.count_nonzero(sparse[film.n:, film.n:] - np.identity(film.m)) > 0  # (contact in J_qq)
+                assert (
+                    np.count_nonzero(sparse[film.n :, film.n :] - np.identity(film.m)) > 0
+                )  # (contact in J_qq)
     assert "mumps" in packages and "petsc" in packages  # (both factorisations of the film block were taken)
     for (its, x, J), (its_ref, x_ref, J_ref) in zip(*runs):
         n = len(x) - 24

@@ -22,8 +22,12 @@ def test_jacobian_matches_finite_differences(inlet, film_differences):
     The state mixes rotation of both surfaces and squeeze, so every term of the form contributes; the
     last column is the derivative with respect to the relative rotation speed."""
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet=inlet)
-    base = Kinematics((0.5 * C * math.cos(1.0), 0.5 * C * math.sin(1.0)), (0.3 * C * OMEGA, -0.2 * C * OMEGA),
-                      OMEGA, 0.3 * OMEGA)
+    base = Kinematics(
+        (0.5 * C * math.cos(1.0), 0.5 * C * math.sin(1.0)),
+        (0.3 * C * OMEGA, -0.2 * C * OMEGA),
+        OMEGA,
+        0.3 * OMEGA,
+    )
     steps = np.array([1e-4 * C] * 2 + [1e-4 * C * OMEGA] * 2 + [1e-4 * OMEGA])
     with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.08) as model:
         model.solve(base)
@@ -59,11 +63,21 @@ def test_mixed_jacobian_matches_finite_differences(film_differences):
 
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
-    base = Kinematics((0.94 * C * math.cos(-1.2), 0.94 * C * math.sin(-1.2)), (0.05 * C * OMEGA, -0.1 * C * OMEGA),
-                      0.2 * OMEGA, -0.3 * OMEGA)
+    base = Kinematics(
+        (0.94 * C * math.cos(-1.2), 0.94 * C * math.sin(-1.2)),
+        (0.05 * C * OMEGA, -0.1 * C * OMEGA),
+        0.2 * OMEGA,
+        -0.3 * OMEGA,
+    )
     steps = np.array([3e-6 * C] * 2 + [3e-5 * C * OMEGA] * 2 + [3e-5 * OMEGA])
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.08, roughness=surface.roughness(),
-                   contact=surface.contact()) as model:
+    with FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=0.08,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+    ) as model:
         r0 = model.solve(base)
         assert r0.asperity_load > 0
         J = model.jacobian().matrix

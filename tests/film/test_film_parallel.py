@@ -20,13 +20,21 @@ R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
 
 
 # an axial oil groove at 3 bar: its Dirichlet dofs and the supply flow across the partition
-GROOVE = {"supply_pressure": 3e5, "groove": "axial", "groove_angle": 2.0, "groove_arc": math.radians(40),
-          "groove_length": 1.2 * R}
+GROOVE = {
+    "supply_pressure": 3e5,
+    "groove": "axial",
+    "groove_angle": 2.0,
+    "groove_arc": math.radians(40),
+    "groove_length": 1.2 * R,
+}
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("inlet, supply", [("max-gap", {}), ("none", {}), ("none", GROOVE)],
-                         ids=["max-gap", "none", "axial-groove"])
+@pytest.mark.parametrize(
+    "inlet, supply",
+    [("max-gap", {}), ("none", {}), ("none", GROOVE)],
+    ids=["max-gap", "none", "axial-groove"],
+)
 def test_distributed_force_equals_serial(comm, inlet, supply):
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet=inlet, **supply)
     kin = Kinematics((0.3 * C, -0.6 * C), (0.2 * C * OMEGA, 0.1 * C * OMEGA), OMEGA, -0.2 * OMEGA)

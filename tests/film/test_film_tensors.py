@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import numpy as np
 import pytest
@@ -35,21 +34,42 @@ ROUGH = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
 
 
 def _model(rough: bool, hole: bool, **kwargs) -> FilmModel:
-    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none",
-                      supply_pressure=3e5 if hole else 0.0, supply_hole_angle=0.5 if hole else None,
-                      supply_hole_diameter=3e-3 if hole else 0.0)
+    bearing = Bearing(
+        radius=R,
+        width=2 * R,
+        clearance=C,
+        viscosity=MU,
+        inlet="none",
+        supply_pressure=3e5 if hole else 0.0,
+        supply_hole_angle=0.5 if hole else None,
+        supply_hole_diameter=3e-3 if hole else 0.0,
+    )
     surface = ROUGH if rough else None
-    return FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1,
-                     roughness=surface.roughness() if rough else None, contact=surface.contact() if rough else None,
-                     **kwargs)
+    return FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=0.1,
+        roughness=surface.roughness() if rough else None,
+        contact=surface.contact() if rough else None,
+        **kwargs,
+    )
 
 
-STATE = Kinematics((0.93 * C * math.cos(2.0), 0.93 * C * math.sin(2.0)), (0.2 * C * OMEGA, -0.4 * C * OMEGA), OMEGA,
-                   0.2 * OMEGA)
+STATE = Kinematics(
+    (0.93 * C * math.cos(2.0), 0.93 * C * math.sin(2.0)),
+    (0.2 * C * OMEGA, -0.4 * C * OMEGA),
+    OMEGA,
+    0.2 * OMEGA,
+)
 
 
-DEEP = Kinematics((0.995 * C * math.cos(4.0), 0.995 * C * math.sin(4.0)), (-0.3 * C * OMEGA, 0.1 * C * OMEGA), OMEGA,
-                  -0.5 * OMEGA)
+DEEP = Kinematics(
+    (0.995 * C * math.cos(4.0), 0.995 * C * math.sin(4.0)),
+    (-0.3 * C * OMEGA, 0.1 * C * OMEGA),
+    OMEGA,
+    -0.5 * OMEGA,
+)
 
 
 @pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
@@ -66,7 +86,10 @@ def test_tensors_equal_the_assembly_of_the_form(rough, hole, state):
         solver.assembler, assembler = None, solver.assembler  # dolfinx's assembly of the UFL form
         solver.update()
         solver.assembler = assembler
-        dense_t, dense_f = A_tensor.convert("dense").getDenseArray(), solver.A.convert("dense").getDenseArray()
+        dense_t, dense_f = (
+            A_tensor.convert("dense").getDenseArray(),
+            solver.A.convert("dense").getDenseArray(),
+        )
         assert np.abs(dense_t - dense_f).max() <= 1e-12 * np.abs(dense_f).max()
         assert np.abs(l_tensor.array - solver.rhs.array).max() <= 1e-12 * np.abs(solver.rhs.array).max()
         assert np.abs(solver.rhs.array).max() > 0 and np.count_nonzero(dense_f) > 5 * model.dofs
@@ -76,8 +99,16 @@ def test_tensors_equal_the_assembly_of_the_form(rough, hole, state):
 
 @pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
 def test_fixed_pattern_lu_gives_the_reduced_iterates(rough):
-    states = [Kinematics((e * C * math.cos(a), e * C * math.sin(a)), (r * C * OMEGA, 0.0), OMEGA, 0.0)
-              for e, a, r in [(0.3, 0.0, 0.0), (0.9, 1.0, 0.5), (0.95, 2.5, -1.0), (0.5, 4.0, 2.0), (0.97, 5.0, 0.0)]]
+    states = [
+        Kinematics((e * C * math.cos(a), e * C * math.sin(a)), (r * C * OMEGA, 0.0), OMEGA, 0.0)
+        for e, a, r in [
+            (0.3, 0.0, 0.0),
+            (0.9, 1.0, 0.5),
+            (0.95, 2.5, -1.0),
+            (0.5, 4.0, 2.0),
+            (0.97, 5.0, 0.0),
+        ]
+    ]
     results = {}
     for fixed in (True, False):
         with _model(rough, False, options=None) as model:
@@ -133,17 +164,25 @@ def test_warm_start_turned_with_a_jumping_frame_saves_vi_iterations():
             counts[turn], loads[turn] = 0, []
             for k in range(41):
                 s, a = 0.6 - 0.03 * k, 0.4
-                result = model.solve(Kinematics((s * C * math.cos(a) + 0.05 * C, s * C * math.sin(a)),
-                                                (-2 * C * OMEGA * math.cos(a), -2 * C * OMEGA * math.sin(a)),
-                                                0.3 * OMEGA, 0.0))
+                result = model.solve(
+                    Kinematics(
+                        (s * C * math.cos(a) + 0.05 * C, s * C * math.sin(a)),
+                        (-2 * C * OMEGA * math.cos(a), -2 * C * OMEGA * math.sin(a)),
+                        0.3 * OMEGA,
+                        0.0,
+                    )
+                )
                 counts[turn] += result.iterations
                 loads[turn].append(result.load)
     np.testing.assert_allclose(loads[True], loads[False], rtol=1e-9)
     assert counts[True] < counts[False]
 
 
-@pytest.mark.parametrize("rough, elastic", [(False, False), (True, False), (False, True), (True, True)],
-                         ids=["smooth", "rough", "smooth-elastic", "rough-elastic"])
+@pytest.mark.parametrize(
+    "rough, elastic",
+    [(False, False), (True, False), (False, True), (True, True)],
+    ids=["smooth", "rough", "smooth-elastic", "rough-elastic"],
+)
 def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
     """The pressure part of the viscous torque from PressureTorque and from the UFL integrand evaluated by
     dolfinx (solver.film.bearing.QuadratureFunctionals, the rule the forms use) at three solved states:
@@ -160,7 +199,9 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
         _, _, pressure_part = shear_traction_integrands(model.pressure, model.geometry, model.roughness)
         reference = QuadratureFunctionals(model.mesh, [pressure_part], torque.DEGREE)
         for e, angle, rate in [(0.3, 0.5, 0.0), (0.93, 2.0, 0.4), (0.98, 4.5, -1.0)]:
-            state = Kinematics((e * C * math.cos(angle), e * C * math.sin(angle)), (0.0, rate * C * OMEGA), OMEGA, 0.0)
+            state = Kinematics(
+                (e * C * math.cos(angle), e * C * math.sin(angle)), (0.0, rate * C * OMEGA), OMEGA, 0.0
+            )
             model.solve(state)
             n = torque.B.shape[1]
             eps = float(model.params.eps_x.value), float(model.params.eps_y.value)

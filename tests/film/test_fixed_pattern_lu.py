@@ -25,13 +25,16 @@ class _Matrix:
         n = len(diagonal)
         self.comm = MPI.COMM_SELF
         indptr = np.arange(n + 1, dtype=PETSc.IntType)
-        self.A = PETSc.Mat().createAIJ((n, n), csr=(indptr, np.arange(n, dtype=PETSc.IntType), diagonal),
-                                       comm=self.comm)
+        self.A = PETSc.Mat().createAIJ(
+            (n, n), csr=(indptr, np.arange(n, dtype=PETSc.IntType), diagonal), comm=self.comm
+        )
         self.A.assemble()
 
     def set_diagonal(self, diagonal: np.ndarray) -> None:
         n = len(diagonal)
-        self.A.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), np.arange(n, dtype=PETSc.IntType), diagonal)
+        self.A.setValuesCSR(
+            np.arange(n + 1, dtype=PETSc.IntType), np.arange(n, dtype=PETSc.IntType), diagonal
+        )
         self.A.assemble()
 
 

@@ -31,10 +31,13 @@ def test_isotropic_pressure_flow():
     assert np.allclose(pc.pressure_flow_y(H), ref, rtol=1e-12)
 
 
-@pytest.mark.parametrize("gamma, ref", [
-    (3.0, lambda h: 1 + 0.225 * h**-1.5),  # gamma > 1: 1 + C H^-r
-    (1 / 3, lambda h: 1 - 1.18 * np.exp(-0.42 * h)),  # gamma < 1
-])
+@pytest.mark.parametrize(
+    "gamma, ref",
+    [
+        (3.0, lambda h: 1 + 0.225 * h**-1.5),  # gamma > 1: 1 + C H^-r
+        (1 / 3, lambda h: 1 - 1.18 * np.exp(-0.42 * h)),  # gamma < 1
+    ],
+)
 def test_anisotropic_pressure_flow_and_symmetry(gamma, ref):
     """Patir & Cheng 1978 Table 1 at H >= 1 (inside both fits); phi_y(H, gamma) = phi_x(H, 1/gamma)."""
     h = H[H >= 1.0]
@@ -65,7 +68,9 @@ def test_shear_stress_factors():
     """Phi_fs = 11.1 H^2.31 exp(-2.38 H + 0.11 H^2) (H < 7, else 0), Phi_fp = 1 - 1.40 exp(-0.66 H)."""
     pc = ff.PatirCheng(sigma_bushing=0.3e-6, sigma_journal=0.0)  # variance ratio +1
     _, Phi_fs, Phi_fp = pc.shear_stress_factors(H)
-    assert np.allclose(Phi_fs, np.where(H < 7, 11.1 * H**2.31 * np.exp(-2.38 * H + 0.11 * H**2), 0.0), rtol=1e-12)
+    assert np.allclose(
+        Phi_fs, np.where(H < 7, 11.1 * H**2.31 * np.exp(-2.38 * H + 0.11 * H**2), 0.0), rtol=1e-12
+    )
     assert np.allclose(Phi_fp, 1 - 1.40 * np.exp(-0.66 * H), rtol=1e-12)
 
 
@@ -90,8 +95,13 @@ def test_factors_below_range_are_held_and_smooth_limit():
         assert np.array_equal(law(low), law(edge))
     for a, b in zip(pc.shear_stress_factors(low), pc.shear_stress_factors(edge)):
         assert np.array_equal(a, b)
-    smooth = [pc.pressure_flow_x(big), pc.pressure_flow_y(big), pc.shear_flow(big), pc.contact_factor(big),
-              *pc.shear_stress_factors(big)]
+    smooth = [
+        pc.pressure_flow_x(big),
+        pc.pressure_flow_y(big),
+        pc.shear_flow(big),
+        pc.contact_factor(big),
+        *pc.shear_stress_factors(big),
+    ]
     assert np.allclose([s[0] for s in smooth], [1, 1, 0, 1, 1, 0, 1], atol=1e-8)
 
 
@@ -103,21 +113,29 @@ def test_ufl_expressions_equal_numpy():
     pc = ff.PatirCheng(sigma_bushing=0.3e-6, sigma_journal=0.1e-6, gamma=2.0)
     for h in (0.3, 1.7, 4.2, 6.5, 40.0):
         Hc = fem.Constant(mesh, h)
-        laws = [pc.pressure_flow_x, pc.pressure_flow_y, pc.shear_flow, pc.contact_factor,
-                lambda x, mod=np: pc.shear_stress_factors(x, mod)[0],
-                lambda x, mod=np: pc.shear_stress_factors(x, mod)[1],
-                lambda x, mod=np: pc.shear_stress_factors(x, mod)[2]]
+        laws = [
+            pc.pressure_flow_x,
+            pc.pressure_flow_y,
+            pc.shear_flow,
+            pc.contact_factor,
+            lambda x, mod=np: pc.shear_stress_factors(x, mod)[0],
+            lambda x, mod=np: pc.shear_stress_factors(x, mod)[1],
+            lambda x, mod=np: pc.shear_stress_factors(x, mod)[2],
+        ]
         for law in laws:
             value = fem.assemble_scalar(fem.form(law(Hc, mod=ufl) * ufl.dx))
             assert value == pytest.approx(float(law(np.array([h]))[0]), rel=1e-12, abs=1e-14)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(sigma_bushing=-1e-7, sigma_journal=1e-7), "sigma_bushing"),
-    (dict(sigma_bushing=0.0, sigma_journal=0.0), "sigma"),
-    (dict(sigma_bushing=1e-7, sigma_journal=1e-7, gamma=0.0), "peklenik_gamma"),
-    (dict(sigma_bushing=1e-7, sigma_journal=1e-7, gamma=20.0), "peklenik_gamma"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(sigma_bushing=-1e-7, sigma_journal=1e-7), "sigma_bushing"),
+        (dict(sigma_bushing=0.0, sigma_journal=0.0), "sigma"),
+        (dict(sigma_bushing=1e-7, sigma_journal=1e-7, gamma=0.0), "peklenik_gamma"),
+        (dict(sigma_bushing=1e-7, sigma_journal=1e-7, gamma=20.0), "peklenik_gamma"),
+    ],
+)
 def test_bad_roughness_input(kwargs, name):
     from solver.errors import InputError
 

@@ -61,9 +61,11 @@ def _jfo_exact() -> dict[str, float]:
 
 def _jfo_exact_pressure(x: np.ndarray) -> np.ndarray:
     e, p_end = _jfo_exact(), P_AMBIENT - P_CAV
-    return np.select([x <= A, x <= e["x_r"], x <= A + B],
-                     [p_end * (A - x) / A, 0.0 * x, e["slope"] * (x - e["x_r"])],
-                     e["peak"] + (p_end - e["peak"]) * (x - A - B) / (LENGTH - A - B))
+    return np.select(
+        [x <= A, x <= e["x_r"], x <= A + B],
+        [p_end * (A - x) / A, 0.0 * x, e["slope"] * (x - e["x_r"])],
+        e["peak"] + (p_end - e["peak"]) * (x - A - B) / (LENGTH - A - B),
+    )
 
 
 def test_closed_forms_reproduce_the_data_file():
@@ -89,7 +91,10 @@ def _slider(n: int):
     H = ufl.conditional(pocket, 1.0, H_LAND / H_POCKET)
     X = V.tabulate_dof_coordinates()[:, 0]
     p_end = (P_AMBIENT - P_CAV) / P_REF
-    ends = {"inlet": (np.flatnonzero(np.isclose(X, 0.0)), p_end), "outlet": (np.flatnonzero(np.isclose(X, 1.0)), p_end)}
+    ends = {
+        "inlet": (np.flatnonzero(np.isclose(X, 0.0)), p_end),
+        "outlet": (np.flatnonzero(np.isclose(X, 1.0)), p_end),
+    }
     return V, H, ends, X, shift
 
 
@@ -165,7 +170,8 @@ def test_reynolds_condition_alone_gives_the_contrast():
     p_end = P_AMBIENT - P_CAV
     q_in = U_REF * H_LAND + H_LAND**3 * p_end / (12 * MU * A)
     q_out = (12 * MU * (U_REF * B / H_POCKET**2 + U_REF * (LENGTH - A - B) / H_LAND**2) - p_end) / (
-        12 * MU * (B / H_POCKET**3 + (LENGTH - A - B) / H_LAND**3))
+        12 * MU * (B / H_POCKET**3 + (LENGTH - A - B) / H_LAND**3)
+    )
     peak = (U_REF * H_POCKET - q_out) * 12 * MU * B / H_POCKET**3
     load = p_end * A / 2 + peak * B / 2 + (peak + p_end) / 2 * (LENGTH - A - B)
     assert peak + P_CAV == pytest.approx(1669.7e3, abs=50.0)
@@ -193,14 +199,26 @@ def _manufactured():
     theta2 = 1 - sp.Rational(3, 2) * (x - XC) ** 2 / (1 + x)
     theta_r, H_r = theta2.subs(x, XR), H.subs(x, XR)
     P3 = (1 - theta_r) / H_r**2 * (x - XR) + 3 * (x - XR) ** 2
-    fluxes = [-H**3 * sp.diff(P1, x) + H, theta2 * H, -H**3 * sp.diff(P3, x) + H]
-    assert sp.simplify((fluxes[0] - fluxes[1]).subs(x, XC)) == 0 and sp.simplify((fluxes[1] - fluxes[2]).subs(x, XR)) == 0
-    return x, H, (P1, sp.Integer(0), P3), (sp.Integer(1), theta2, sp.Integer(1)), [sp.diff(Q, x) for Q in fluxes]
+    fluxes = [-(H**3) * sp.diff(P1, x) + H, theta2 * H, -(H**3) * sp.diff(P3, x) + H]
+    assert (
+        sp.simplify((fluxes[0] - fluxes[1]).subs(x, XC)) == 0
+        and sp.simplify((fluxes[1] - fluxes[2]).subs(x, XR)) == 0
+    )
+    return (
+        x,
+        H,
+        (P1, sp.Integer(0), P3),
+        (sp.Integer(1), theta2, sp.Integer(1)),
+        [sp.diff(Q, x) for Q in fluxes],
+    )
 
 
 def _zones(expressions, x, X, mod):
     """The piecewise function of the three zones, as UFL (mod=ufl) or numpy (mod=np)."""
-    f = [sp.lambdify(x, e, modules=[{"cos": mod.cos, "sin": mod.sin, "pi": math.pi}, "math"]) for e in expressions]
+    f = [
+        sp.lambdify(x, e, modules=[{"cos": mod.cos, "sin": mod.sin, "pi": math.pi}, "math"])
+        for e in expressions
+    ]
     if mod is ufl:
         return ufl.conditional(ufl.lt(X, XC), f[0](X), ufl.conditional(ufl.lt(X, XR), f[1](X), f[2](X)))
     return np.select([X < XC, X < XR], [f[0](X) + 0 * X, f[1](X) + 0 * X], f[2](X) + 0 * X)
@@ -212,13 +230,19 @@ def _solve_manufactured(n: int) -> tuple[float, float, float]:
     V = fem.FunctionSpace(msh, ("Lagrange", 1))
     X = ufl.SpatialCoordinate(msh)[0]
     Xd = V.tabulate_dof_coordinates()[:, 0]
-    ends = {"left": (np.flatnonzero(np.isclose(Xd, 0.0)), float(P[0].subs(x, 0))),
-            "right": (np.flatnonzero(np.isclose(Xd, 1.0)), float(P[2].subs(x, 1)))}
+    ends = {
+        "left": (np.flatnonzero(np.isclose(Xd, 0.0)), float(P[0].subs(x, 0))),
+        "right": (np.flatnonzero(np.isclose(Xd, 1.0)), float(P[2].subs(x, 1))),
+    }
     H_ufl = sp.lambdify(x, H, modules=[{"cos": ufl.cos, "pi": math.pi}])(X)
-    with JFOSolver(V, H_ufl, ufl.as_vector((1.0,)), ends, f=_zones(f, x, X, ufl), quadrature_degree=8) as solver:
+    with JFOSolver(
+        V, H_ufl, ufl.as_vector((1.0,)), ends, f=_zones(f, x, X, ufl), quadrature_degree=8
+    ) as solver:
         solution = solver.solve()
         dx = ufl.dx(metadata={"quadrature_degree": 8})
-        error_L2 = math.sqrt(fem.assemble_scalar(fem.form((solver.pressure - _zones(P, x, X, ufl)) ** 2 * dx)))
+        error_L2 = math.sqrt(
+            fem.assemble_scalar(fem.form((solver.pressure - _zones(P, x, X, ufl)) ** 2 * dx))
+        )
     error_P = np.max(np.abs(solution.pressure - _zones(P, x, Xd, np)))
     error_theta = np.max(np.abs(solution.theta - _zones(theta, x, Xd, np)))
     return error_L2, error_P, error_theta
@@ -267,7 +291,9 @@ def test_moving_pocket_conserves_mass_per_step():
 
     def volumes(shift: float) -> tuple[np.ndarray, np.ndarray]:
         middle = (x[1:] + x[:-1]) / 2
-        h_face = np.where((middle > A / LENGTH + shift) & (middle < (A + B) / LENGTH + shift), 1.0, H_LAND / H_POCKET)
+        h_face = np.where(
+            (middle > A / LENGTH + shift) & (middle < (A + B) / LENGTH + shift), 1.0, H_LAND / H_POCKET
+        )
         m = np.zeros(n + 1)
         m[:-1] += h_face * dx / 2
         m[1:] += h_face * dx / 2
@@ -407,8 +433,9 @@ def test_flooded_slider_is_the_reynolds_solution():
     g = fem.Function(V)
     g.x.array[:] = high
     bc = fem.dirichletbc(g, np.concatenate([ends["inlet"][0], ends["outlet"][0]]).astype(np.int32))
-    with CavitatingSolver(fem.form(H**3 * w.dx(0) * v.dx(0) * ufl.dx), fem.form(-H * v.dx(0) * ufl.dx), P, [bc],
-                          lower=0.0) as reference:
+    with CavitatingSolver(
+        fem.form(H**3 * w.dx(0) * v.dx(0) * ufl.dx), fem.form(-H * v.dx(0) * ufl.dx), P, [bc], lower=0.0
+    ) as reference:
         reference.solve()
     assert np.min(P.x.array) > 0.5 * high and np.all(solution.theta == 1.0)
     assert np.max(np.abs(solution.pressure - P.x.array)) <= 1e-10 * np.max(P.x.array)
@@ -430,7 +457,10 @@ def test_flooded_bearing_film_agrees_with_reynolds_forms():
         params = reynolds.FilmParameters(msh)
         params.set(eps_x=0.6, U_mean=0.5)
         g = reynolds.FilmGeometry(msh, params)
-        edges = [fem.locate_dofs_topological(V, 1, facet_tags.find(TAGS[name])) for name in ("edge_minus", "edge_plus")]
+        edges = [
+            fem.locate_dofs_topological(V, 1, facet_tags.find(TAGS[name]))
+            for name in ("edge_minus", "edge_plus")
+        ]
         dx = ufl.dx(metadata={"quadrature_degree": 2})
         P, v, w = fem.Function(V), ufl.TestFunction(V), ufl.TrialFunction(V)
         residual = reynolds.reynolds_integrand(P, v, g)
@@ -438,7 +468,9 @@ def test_flooded_bearing_film_agrees_with_reynolds_forms():
         l = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         ambient = fem.Function(V)
         ambient.x.array[:] = 5.0
-        with CavitatingSolver(a, l, P, [fem.dirichletbc(ambient, np.concatenate(edges))], lower=0.0) as reference:
+        with CavitatingSolver(
+            a, l, P, [fem.dirichletbc(ambient, np.concatenate(edges))], lower=0.0
+        ) as reference:
             reference.solve()
         prescribed = {"minus": (edges[0], 5.0), "plus": (edges[1], 5.0)}
         with JFOSolver(V, g.H, g.U_mean * g.tangent, prescribed, quadrature_degree=2) as solver:

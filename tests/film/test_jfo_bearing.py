@@ -36,9 +36,18 @@ ROUGH = PatirCheng(sigma_bushing=0.3e-6, sigma_journal=0.1e-6)
 
 
 def _model(cavitation, *, mesh_size=0.1, p_cav=-0.5e5, roughness=ROUGH, transport="limited", **bearing):
-    b = Bearing(radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=p_cav, inlet="none", **bearing)
-    return FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size, cavitation=cavitation,
-                     roughness=roughness, transport=transport)
+    b = Bearing(
+        radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=p_cav, inlet="none", **bearing
+    )
+    return FilmModel(
+        b,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=mesh_size,
+        cavitation=cavitation,
+        roughness=roughness,
+        transport=transport,
+    )
 
 
 def _outputs(r) -> np.ndarray:
@@ -50,8 +59,13 @@ def test_mean_gap_integrates_the_contact_factor():
     a smooth integrand on at most [0, 3]); its slope is phi_c to the central difference's error
     (1e-8 with a step of 1e-5)."""
     for Hs in (-1.0, 0.0, 0.4, 1.7, 2.9, 3.0, 5.0):
-        exact = Hs + quad(lambda x: 1.0 - float(contact_factor(np.array([x]))[0]), max(Hs, 0.0), 3.0)[0] \
-            + max(-Hs, 0.0) * (1.0 - float(contact_factor(np.array([0.0]))[0])) if Hs < 3 else Hs
+        exact = (
+            Hs
+            + quad(lambda x: 1.0 - float(contact_factor(np.array([x]))[0]), max(Hs, 0.0), 3.0)[0]
+            + max(-Hs, 0.0) * (1.0 - float(contact_factor(np.array([0.0]))[0]))
+            if Hs < 3
+            else Hs
+        )
         assert float(mean_gap(np.array([Hs]))[0]) == pytest.approx(exact, abs=1e-12)
     Hs, d = np.array([-0.7, 0.2, 1.0, 2.5, 4.0]), 1e-5
     assert np.max(np.abs((mean_gap(Hs + d) - mean_gap(Hs - d)) / (2 * d) - contact_factor(Hs))) < 1e-8
@@ -87,7 +101,7 @@ def test_jacobian_matches_finite_differences():
     the steps are small enough for the partition to stay, large enough for round-off)."""
     with _model("jfo") as model:
         model.solve(Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0), 0.0)
-        model.commit_deformation(model.deformation_state(), 0.0)
+        model.commit_history(model.history_state(), 0.0)
         t, omega_b = 5e-5, 30.0
         x0 = np.array([5.5e-6, 3.2e-6, 0.01, 0.004, OMEGA - omega_b])
 
@@ -114,12 +128,14 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
     from solver.errors import FilmNotConverged
 
     kin0 = Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0)
-    states = [Kinematics((5.5e-6, 3.2e-6), (0.01, 0.004), OMEGA, 30.0),
-              Kinematics((5.6e-6, 3.3e-6), (0.012, 0.004), OMEGA, 30.0)]
+    states = [
+        Kinematics((5.5e-6, 3.2e-6), (0.01, 0.004), OMEGA, 30.0),
+        Kinematics((5.6e-6, 3.3e-6), (0.012, 0.004), OMEGA, 30.0),
+    ]
     with _model("jfo") as model, _model("jfo", transport="upwind") as upwind:
         for m in (model, upwind):
             m.solve(kin0, 0.0)
-            m.commit_deformation(m.deformation_state(), 0.0)
+            m.commit_history(m.history_state(), 0.0)
         real, broken = model._jfo.solve, [True]
 
         def failing(*args, **kwargs):  # every limited solve fails while ``broken``
@@ -130,14 +146,20 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
         model._jfo.solve = failing
         first = _outputs(model.solve(states[0], 5e-5))
         assert model.stats.transport_fallbacks == 1
-        assert np.max(np.abs(first - _outputs(upwind.solve(states[0], 5e-5)))) <= 1e-10 * np.max(np.abs(first))
+        assert np.max(np.abs(first - _outputs(upwind.solve(states[0], 5e-5)))) <= 1e-10 * np.max(
+            np.abs(first)
+        )
         broken[0] = False
         second = _outputs(model.solve(states[1], 5e-5))  # the same step: still upwind
-        assert np.max(np.abs(second - _outputs(upwind.solve(states[1], 5e-5)))) <= 1e-10 * np.max(np.abs(second))
+        assert np.max(np.abs(second - _outputs(upwind.solve(states[1], 5e-5)))) <= 1e-10 * np.max(
+            np.abs(second)
+        )
         for m in (model, upwind):
-            m.commit_deformation(m.deformation_state(), 5e-5)
-        later = [_outputs(m.solve(Kinematics((5.7e-6, 3.4e-6), (0.012, 0.004), OMEGA, 30.0), 1e-4))
-                 for m in (model, upwind)]
+            m.commit_history(m.history_state(), 5e-5)
+        later = [
+            _outputs(m.solve(Kinematics((5.7e-6, 3.4e-6), (0.012, 0.004), OMEGA, 30.0), 1e-4))
+            for m in (model, upwind)
+        ]
         assert model._jfo_derivatives.limited is not None and model.stats.transport_fallbacks == 1
         assert np.max(np.abs(later[0] - later[1])) > 1e-4 * np.max(np.abs(later[1]))
 
@@ -146,8 +168,13 @@ def test_steady_supply_flow_equals_side_flow():
     """Steady rotation with an axial groove at 2 bar: what the groove feeds leaves at the edges, to
     1e-9 of the flow (the discrete flux balance is exact; round-off of LU); the Reynolds condition's
     cavity creates oil, and its balance misses by more than 1 % (the check can fail)."""
-    groove = dict(groove="axial", groove_angle=math.pi / 2, groove_arc=math.radians(30), groove_length=0.01,
-                  supply_pressure=2e5)
+    groove = dict(
+        groove="axial",
+        groove_angle=math.pi / 2,
+        groove_arc=math.radians(30),
+        groove_length=0.01,
+        supply_pressure=2e5,
+    )
     kin = Kinematics((6e-6, -2e-6), (0.0, 0.0), OMEGA, 0.0)
     closure = {}
     for cavitation in ("jfo", "reynolds"):
@@ -169,7 +196,7 @@ def test_transient_oil_balance_is_second_order_per_step():
     for dt in (1e-5, 5e-6):
         with _model("jfo", groove="circumferential", groove_width=3e-3, supply_pressure=1e5) as model:
             start = model.solve(Kinematics((6e-6, 0.0), (0.0, 0.0), OMEGA, 0.0), 0.0)
-            model.commit_deformation(model.deformation_state(), 0.0)
+            model.commit_history(model.history_state(), 0.0)
             rate = (-0.05, 0.02)  # m/s
             end = model.solve(Kinematics((6e-6 + rate[0] * dt, rate[1] * dt), rate, OMEGA, 0.0), dt)
             stored = end.oil_volume - start.oil_volume
@@ -184,7 +211,7 @@ def test_uncommitted_solve_leaves_history_unchanged():
     solve at the first state again gives the same result to 1e-9 (the warm start differs only)."""
     with _model("jfo") as model:
         model.solve(Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0), 0.0)
-        model.commit_deformation(model.deformation_state(), 0.0)
+        model.commit_history(model.history_state(), 0.0)
         kin = Kinematics((5.2e-6, 3.1e-6), (0.004, 0.002), OMEGA, 0.0)
         first = _outputs(model.solve(kin, 5e-5))
         model.solve(Kinematics((-7e-6, 1e-6), (-0.1, 0.0), OMEGA, 0.0), 3e-4)
@@ -209,7 +236,7 @@ def test_jfo_refuses_what_it_does_not_support():
     with FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, cavitation="jfo") as model:
         model.solve(Kinematics((5e-6, 0.0), (0.0, 0.0), OMEGA, 0.0))  # quasi-static: allowed
         with pytest.raises(InputError, match="inlet 'none'"):
-            model.commit_deformation(model.deformation_state(), 0.0)
+            model.commit_history(model.history_state(), 0.0)
 
 
 # -- the mass-conserving film on an elastic bushing (solver.film.ehd_jfo) ------------------------------
@@ -220,15 +247,24 @@ T_BUSHING, E_BUSHING, NU_BUSHING = 1.5e-3, 115e9, 0.33  # the reference small en
 def _elastic(E, *, mesh_size=0.15, **bearing):
     from solver.film.ehd import WinklerLayer
 
-    b = Bearing(radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=-0.5e5, inlet="none", **bearing)
-    return FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=mesh_size, cavitation="jfo", roughness=ROUGH,
-                     elastic=WinklerLayer(thickness=T_BUSHING, E=E, nu=NU_BUSHING))
+    b = Bearing(
+        radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=-0.5e5, inlet="none", **bearing
+    )
+    return FilmModel(
+        b,
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        mesh_size=mesh_size,
+        cavitation="jfo",
+        roughness=ROUGH,
+        elastic=WinklerLayer(thickness=T_BUSHING, E=E, nu=NU_BUSHING),
+    )
 
 
 def _steady_then_step(model):
     """A steady state committed at t = 0, then a squeezing, turning state 50 us later."""
     first = model.solve(Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0), 0.0)
-    model.commit_deformation(model.deformation_state(), 0.0)
+    model.commit_history(model.history_state(), 0.0)
     return first, model.solve(Kinematics((5.5e-6, 3.2e-6), (0.01, 0.004), OMEGA, 30.0), 5e-5)
 
 
@@ -251,7 +287,11 @@ def test_elastic_jfo_film_is_a_winkler_layer():
         assert 0.2 < result.cavitated_area_ratio < 0.8
         w = model.fields_si()["deformation"].x.array
         p = model.fields_si()["pressure"].x.array
-        p_c = model.fields_si()["asperity_pressure"].x.array if "asperity_pressure" in model.fields_si() else 0.0
+        p_c = (
+            model.fields_si()["asperity_pressure"].x.array
+            if "asperity_pressure" in model.fields_si()
+            else 0.0
+        )
         assert np.max(np.abs(w - k * (p + p_c))) <= 1e-9 * np.max(np.abs(w))
         assert np.max(np.abs(w)) > 1e-7  # micrometres under this load: the test is not the rigid one
 
@@ -264,7 +304,7 @@ def test_elastic_jfo_jacobian_matches_finite_differences():
     with _elastic(E_BUSHING) as model:
         _, result = _steady_then_step(model)
         J = model.jacobian().matrix
-        solution = model.deformation_state()
+        solution = model.history_state()
         x0 = np.array([5.5e-6, 3.2e-6, 0.01, 0.004, OMEGA - 30.0])
 
         def outputs(x):
@@ -281,8 +321,13 @@ def test_elastic_jfo_jacobian_matches_finite_differences():
 def test_elastic_jfo_steady_supply_flow_equals_side_flow():
     """Bronze Winkler bushing, steady rotation with an axial groove at 2 bar: supply = side flow to
     1e-9 (the coupled residual's fluxes balance as the rigid film's)."""
-    groove = dict(groove="axial", groove_angle=math.pi / 2, groove_arc=math.radians(30), groove_length=0.01,
-                  supply_pressure=2e5)
+    groove = dict(
+        groove="axial",
+        groove_angle=math.pi / 2,
+        groove_arc=math.radians(30),
+        groove_length=0.01,
+        supply_pressure=2e5,
+    )
     with _elastic(E_BUSHING, **groove) as model:
         r = model.solve(Kinematics((6e-6, -2e-6), (0.0, 0.0), OMEGA, 0.0))
         assert r.cavitated_area_ratio > 0.1 and r.side_flow > 0 and r.max_deformation != 0

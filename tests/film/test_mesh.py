@@ -61,9 +61,11 @@ def test_half_mesh_covers_z_above_the_mid_plane(comm):
     assert _integrate(mesh, one, dx(TAGS["supply"])) == pytest.approx(0.5 * math.pi * 0.2**2, rel=0.03)
 
 
-GROOVES = [AxialGroove(angle=2.0, arc=math.radians(40), length=0.8),
-           AxialGroove(angle=-1.0, arc=math.radians(350), length=0.3),  # nearly all round: a thin land at the seam
-           CircumferentialGroove(width=0.3)]
+GROOVES = [
+    AxialGroove(angle=2.0, arc=math.radians(40), length=0.8),
+    AxialGroove(angle=-1.0, arc=math.radians(350), length=0.3),  # nearly all round: a thin land at the seam
+    CircumferentialGroove(width=0.3),
+]
 
 
 @pytest.mark.mpi
@@ -81,8 +83,9 @@ def test_groove_cells_are_the_groove(comm, groove, half):
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
     area = _integrate(mesh, fem.Constant(mesh, 1.0), dx(TAGS["supply"]))
     assert area == pytest.approx(groove.area / spec.multiplicity, rel=h**2 / 12)
-    assert _integrate(mesh, fem.Constant(mesh, 1.0), dx) == pytest.approx(2 * math.pi * 1.5 / spec.multiplicity,
-                                                                          rel=h**2 / 12)
+    assert _integrate(mesh, fem.Constant(mesh, 1.0), dx) == pytest.approx(
+        2 * math.pi * 1.5 / spec.multiplicity, rel=h**2 / 12
+    )
     cells = cell_tags.find(TAGS["supply"])
     x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[cells]].reshape(-1, 3)
     if isinstance(groove, AxialGroove):
@@ -95,15 +98,21 @@ def test_groove_cells_are_the_groove(comm, groove, half):
         assert x[:, 2].min(initial=0.0) >= -1e-12
 
 
-@pytest.mark.parametrize("kwargs", [dict(width=0.0), dict(width=1.0, element_size=0.0),
-                                    dict(width=1.0, supply=SupplyHole(angle=0.0, diameter=2.0)),
-                                    dict(width=1.0, supply=SupplyHole(angle=0.0, z=0.1, diameter=0.2), half=True),
-                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=2 * math.pi, length=0.5)),
-                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=0.0, length=0.5)),
-                                    dict(width=1.0, supply=AxialGroove(angle=0.0, arc=1.0, length=1.0)),
-                                    dict(width=1.0, supply=AxialGroove(angle=math.nan, arc=1.0, length=0.5)),
-                                    dict(width=1.0, supply=CircumferentialGroove(width=1.0)),
-                                    dict(width=1.0, supply=CircumferentialGroove(width=-0.1), half=True)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(width=0.0),
+        dict(width=1.0, element_size=0.0),
+        dict(width=1.0, supply=SupplyHole(angle=0.0, diameter=2.0)),
+        dict(width=1.0, supply=SupplyHole(angle=0.0, z=0.1, diameter=0.2), half=True),
+        dict(width=1.0, supply=AxialGroove(angle=0.0, arc=2 * math.pi, length=0.5)),
+        dict(width=1.0, supply=AxialGroove(angle=0.0, arc=0.0, length=0.5)),
+        dict(width=1.0, supply=AxialGroove(angle=0.0, arc=1.0, length=1.0)),
+        dict(width=1.0, supply=AxialGroove(angle=math.nan, arc=1.0, length=0.5)),
+        dict(width=1.0, supply=CircumferentialGroove(width=1.0)),
+        dict(width=1.0, supply=CircumferentialGroove(width=-0.1), half=True),
+    ],
+)
 def test_bad_mesh_spec_is_input_error(kwargs):
     with pytest.raises(InputError, match="out of range") as caught:
         FilmMeshSpec(**kwargs)

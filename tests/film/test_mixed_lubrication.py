@@ -35,8 +35,14 @@ def test_smooth_limit_equals_smooth_solver():
     surface = Surface(sigma_journal=0.5e-13, sigma_bushing=1e-13)
     with FilmModel(bearing, MPI.COMM_SELF, omega_ref=300.0, mesh_size=0.1) as smooth:
         ref = _outputs(smooth.solve(kin))
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=300.0, mesh_size=0.1, roughness=surface.roughness(),
-                   contact=surface.contact()) as rough:
+    with FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=300.0,
+        mesh_size=0.1,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+    ) as rough:
         result = rough.solve(kin)
     assert np.allclose(_outputs(result), ref, rtol=1e-6, atol=0)
     assert result.asperity_load == 0.0
@@ -54,13 +60,27 @@ def test_half_film_equals_the_whole_film():
     surface = Surface(sigma_journal=0.3e-6, sigma_bushing=0.3e-6)
     results = []
     for half in (True, False):
-        with FilmModel(bearing, MPI.COMM_SELF, omega_ref=300.0, mesh_size=0.05, roughness=surface.roughness(),
-                       contact=surface.contact(), half=half) as model:
+        with FilmModel(
+            bearing,
+            MPI.COMM_SELF,
+            omega_ref=300.0,
+            mesh_size=0.05,
+            roughness=surface.roughness(),
+            contact=surface.contact(),
+            half=half,
+        ) as model:
             results.append(model.solve(kin))
     half_film, whole = results
     assert whole.asperity_load > 1e-3 * whole.load  # contact present: its integrals are checked too
-    for name in ("hydro_load", "asperity_load", "torque_journal", "torque_bushing", "p_max", "contact_area_ratio",
-                 "side_flow"):
+    for name in (
+        "hydro_load",
+        "asperity_load",
+        "torque_journal",
+        "torque_bushing",
+        "p_max",
+        "contact_area_ratio",
+        "side_flow",
+    ):
         assert getattr(half_film, name) == pytest.approx(getattr(whole, name), rel=0.01), name
 
 
@@ -76,8 +96,15 @@ def test_uniform_contact_of_a_concentric_pin():
     Hs = c / gt.sigma
     omega = 100.0
     bearing = Bearing(radius=R, width=B, clearance=c, viscosity=MU)
-    with FilmModel(bearing, MPI.COMM_SELF, omega_ref=omega, mesh_size=0.05, roughness=surface.roughness(),
-                   contact=gt, slip_regularisation=1e-9) as model:
+    with FilmModel(
+        bearing,
+        MPI.COMM_SELF,
+        omega_ref=omega,
+        mesh_size=0.05,
+        roughness=surface.roughness(),
+        contact=gt,
+        slip_regularisation=1e-9,
+    ) as model:
         r = model.solve(Kinematics((0.0, 0.0), (0.0, 0.0), omega, 0.0))
     area = 2 * math.pi * R * B
     from solver.film.contact import gt_integral
@@ -88,7 +115,9 @@ def test_uniform_contact_of_a_concentric_pin():
     assert r.asperity_load < 1e-6 * p_c * area
     # the journal turns counter-clockwise, so the (fixed) bushing drags it clockwise
     assert r.asperity_torque_journal == pytest.approx(-gt.friction * p_c * area * R, rel=1e-3)
-    assert r.contact_area_ratio == pytest.approx(math.pi**2 * gt.eta_beta_sigma**2 * gt_integral(2.0, Hs), rel=1e-3)
+    assert r.contact_area_ratio == pytest.approx(
+        math.pi**2 * gt.eta_beta_sigma**2 * gt_integral(2.0, Hs), rel=1e-3
+    )
     assert r.h_min_over_sigma == pytest.approx(Hs, rel=1e-12)
 
 
@@ -103,9 +132,14 @@ def test_stribeck_curve_regimes():
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)
     speeds = np.geomspace(0.01, 20000, 9)
     load = 500.0
-    with FilmModel(Bearing(radius=R, width=B, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=2000.0,
-                   roughness=surface.roughness(), contact=surface.contact(),
-                   slip_regularisation=1e-3 * R * speeds[0] * 2 * math.pi / 60) as model:
+    with FilmModel(
+        Bearing(radius=R, width=B, clearance=C, viscosity=MU),
+        MPI.COMM_SELF,
+        omega_ref=2000.0,
+        roughness=surface.roughness(),
+        contact=surface.contact(),
+        slip_regularisation=1e-3 * R * speeds[0] * 2 * math.pi / 60,
+    ) as model:
         data = sweep(model, load, speeds, R)
     f = data["friction_coefficient"]
     N = speeds[-1] / 60
@@ -124,8 +158,13 @@ def test_rougher_surfaces_carry_more_by_asperities():
     shares, H = [], []
     for scale in (1.0, 1.5, 2.0):
         surface = Surface(sigma_journal=0.1e-6 * scale, sigma_bushing=0.3e-6 * scale)
-        with FilmModel(Bearing(radius=R, width=B, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=10.0,
-                       roughness=surface.roughness(), contact=surface.contact()) as model:
+        with FilmModel(
+            Bearing(radius=R, width=B, clearance=C, viscosity=MU),
+            MPI.COMM_SELF,
+            omega_ref=10.0,
+            roughness=surface.roughness(),
+            contact=surface.contact(),
+        ) as model:
             eq = equilibrium(model, (0.0, -500.0), omega_journal=30 * 2 * math.pi / 60)
         shares.append(eq.result.asperity_load / eq.result.load)
         H.append(eq.result.h_min_over_sigma)

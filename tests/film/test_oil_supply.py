@@ -52,8 +52,16 @@ def test_circumferential_groove_side_flow_is_poiseuille(half):
     (no source at eps = 0: the discrete balance is exact up to the VI's tolerance; measured <= 5e-15)."""
     p_s, w = 3e5, 3e-3
     Q = _poiseuille_side_flow(p_s, w)
-    bearing = Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="none", supply_pressure=p_s,
-                      groove="circumferential", groove_width=w)
+    bearing = Bearing(
+        radius=R,
+        width=B,
+        clearance=C,
+        viscosity=MU,
+        inlet="none",
+        supply_pressure=p_s,
+        groove="circumferential",
+        groove_width=w,
+    )
     errors = []
     for h in (0.05, 0.025) if half else (0.05,):
         with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=h, half=half) as model:
@@ -68,9 +76,18 @@ def test_circumferential_groove_side_flow_is_poiseuille(half):
 
 
 def _groove_model(eps: float, p_s: float, arc_deg: float, length: float):
-    bearing = Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="none", supply_pressure=p_s,
-                      groove="axial", groove_angle=math.pi / 2, groove_arc=math.radians(arc_deg),
-                      groove_length=length)
+    bearing = Bearing(
+        radius=R,
+        width=B,
+        clearance=C,
+        viscosity=MU,
+        inlet="none",
+        supply_pressure=p_s,
+        groove="axial",
+        groove_angle=math.pi / 2,
+        groove_arc=math.radians(arc_deg),
+        groove_length=length,
+    )
     model = FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.05)
     # journal below the centre: the gap is widest at +y (90 deg), where the groove is
     return model, model.solve(Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0))
@@ -84,7 +101,9 @@ def _balance_terms(model, groove: AxialGroove) -> tuple[float, float, int]:
     integral of the source, both over the whole film (the half mesh twice)."""
     v = ufl.TestFunction(model.V)
     dx = ufl.dx(domain=model.mesh, metadata={"quadrature_degree": 1})
-    residual = fem_petsc.assemble_vector(fem.form(reynolds.reynolds_integrand(model.P, v, model.geometry) * dx))
+    residual = fem_petsc.assemble_vector(
+        fem.form(reynolds.reynolds_integrand(model.P, v, model.geometry) * dx)
+    )
     r = residual.getArray().copy()
     residual.destroy()
     source = fem.assemble_scalar(fem.form(reynolds.reynolds_coefficients(model.geometry)[2] * dx))
@@ -124,23 +143,53 @@ def test_axial_groove_with_cavitation_balances_with_the_created_oil():
     with model:
         created, source, cavitated = _balance_terms(model, model.mesh_spec.supply)
         assert cavitated > 0 and created > 0 and result.supply_flow > 0
-        assert result.supply_flow + created - result.side_flow == pytest.approx(source, abs=1e-10 * result.side_flow)
+        assert result.supply_flow + created - result.side_flow == pytest.approx(
+            source, abs=1e-10 * result.side_flow
+        )
         assert result.supply_flow < 0.1 * result.side_flow
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"groove": "spiral"}, r"^groove = 'spiral' is out of range"),
-    ({"groove": "axial", "groove_arc": 2 * math.pi, "groove_length": 0.01},
-     r"^groove_arc = 6.28319 is out of range \(allowed: \(0, 2 pi\) rad\)$"),
-    ({"groove": "axial", "groove_arc": 0.5, "groove_length": 0.02}, r"^groove_length = 0.02 is out of range"),
-    ({"groove": "axial", "groove_arc": 0.5, "groove_length": 0.01, "groove_angle": math.inf}, r"^groove_angle = inf"),
-    ({"groove": "circumferential", "groove_width": 0.0}, r"^groove_width = 0 is out of range"),
-    ({"groove": "circumferential", "groove_width": 0.003, "supply_hole_angle": 0.0, "supply_hole_diameter": 0.002},
-     r"one oil supply"),
-    ({"groove": "circumferential", "groove_width": 0.003, "inlet": "max-gap"}, r"^inlet = 'max-gap' cannot be combined"),
-    ({"groove": "circumferential", "groove_width": 0.003, "supply_pressure": -2e5, "cavitation_pressure": -1e5},
-     r"^supply_pressure = -200000 is out of range \(allowed: >= cavitation_pressure"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"groove": "spiral"}, r"^groove = 'spiral' is out of range"),
+        (
+            {"groove": "axial", "groove_arc": 2 * math.pi, "groove_length": 0.01},
+            r"^groove_arc = 6.28319 is out of range \(allowed: \(0, 2 pi\) rad\)$",
+        ),
+        (
+            {"groove": "axial", "groove_arc": 0.5, "groove_length": 0.02},
+            r"^groove_length = 0.02 is out of range",
+        ),
+        (
+            {"groove": "axial", "groove_arc": 0.5, "groove_length": 0.01, "groove_angle": math.inf},
+            r"^groove_angle = inf",
+        ),
+        ({"groove": "circumferential", "groove_width": 0.0}, r"^groove_width = 0 is out of range"),
+        (
+            {
+                "groove": "circumferential",
+                "groove_width": 0.003,
+                "supply_hole_angle": 0.0,
+                "supply_hole_diameter": 0.002,
+            },
+            r"one oil supply",
+        ),
+        (
+            {"groove": "circumferential", "groove_width": 0.003, "inlet": "max-gap"},
+            r"^inlet = 'max-gap' cannot be combined",
+        ),
+        (
+            {
+                "groove": "circumferential",
+                "groove_width": 0.003,
+                "supply_pressure": -2e5,
+                "cavitation_pressure": -1e5,
+            },
+            r"^supply_pressure = -200000 is out of range \(allowed: >= cavitation_pressure",
+        ),
+    ],
+)
 def test_bad_supply_is_one_line_input_error(changes, message):
     arguments = {"radius": R, "width": B, "clearance": C, "viscosity": MU, "inlet": "none"} | changes
     with pytest.raises(InputError, match=message) as caught:
@@ -148,11 +197,21 @@ def test_bad_supply_is_one_line_input_error(changes, message):
     assert "\n" not in str(caught.value)
 
 
-@pytest.mark.parametrize("oil, shape", [
-    ({"inlet": "axial-groove", "groove_angle": math.radians(200), "groove_arc": math.radians(40),
-      "groove_length": 0.012}, AxialGroove(angle=math.radians(200), arc=math.radians(40), length=1.2)),
-    ({"inlet": "circumferential-groove", "groove_width": 0.004}, CircumferentialGroove(width=0.4)),
-])
+@pytest.mark.parametrize(
+    "oil, shape",
+    [
+        (
+            {
+                "inlet": "axial-groove",
+                "groove_angle": math.radians(200),
+                "groove_arc": math.radians(40),
+                "groove_length": 0.012,
+            },
+            AxialGroove(angle=math.radians(200), arc=math.radians(40), length=1.2),
+        ),
+        ({"inlet": "circumferential-groove", "groove_width": 0.004}, CircumferentialGroove(width=0.4)),
+    ],
+)
 def test_the_small_end_of_a_case_gets_the_groove(oil, shape):
     """joint_from_case: a case's groove (rod frame = bushing frame; lengths / pin radius) reaches the film
     mesh as the supply cells, held at oil.supply_pressure_bar (the peak pressure of a still concentric
@@ -160,7 +219,9 @@ def test_the_small_end_of_a_case_gets_the_groove(oil, shape):
     from solver.case import Case, Oil, Solver
     from solver.dynamics.joint import joint_from_case
 
-    case = Case(name="groove", directory=Path("."), oil=Oil(supply_pressure=2e5, **oil), solver=Solver(mesh_size=0.1))
+    case = Case(
+        name="groove", directory=Path("."), oil=Oil(supply_pressure=2e5, **oil), solver=Solver(mesh_size=0.1)
+    )
     engine = types.SimpleNamespace(crank_motion=types.SimpleNamespace(speed=OMEGA))
     _, model = joint_from_case(case, engine, MPI.COMM_SELF, "mixed-fem")
     with model:

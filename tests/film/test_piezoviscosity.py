@@ -68,8 +68,12 @@ def test_short_bearing_load_with_piezoviscosity(law):
     measured). The piezoviscous load is ~20 % above the iso-viscous one, so ignoring the law fails."""
     width = 2 * R / 16
     eps = 0.6
-    with FilmModel(Bearing(radius=R, width=width, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=OMEGA,
-                   piezoviscosity=law) as model:
+    with FilmModel(
+        Bearing(radius=R, width=width, clearance=C, viscosity=MU),
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        piezoviscosity=law,
+    ) as model:
         result = model.solve(Kinematics((eps * C, 0.0), (0.0, 0.0), OMEGA, 0.0))
     assert result.load == pytest.approx(_short_bearing_load(law, eps, width), rel=0.02)
     if law is not None:
@@ -80,7 +84,11 @@ def test_short_bearing_load_with_piezoviscosity(law):
 def test_rigid_piezoviscous_film_beyond_its_limit_says_so():
     """A rigid film whose reduced pressure exceeds 1/alpha has no bounded pressure: the solve fails
     with a message that points to the elastic bushing, rather than returning inf."""
-    with FilmModel(Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU), MPI.COMM_SELF, omega_ref=OMEGA,
-                   piezoviscosity=Barus(ALPHA)) as model:
+    with FilmModel(
+        Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU),
+        MPI.COMM_SELF,
+        omega_ref=OMEGA,
+        piezoviscosity=Barus(ALPHA),
+    ) as model:
         with pytest.raises(FilmNotConverged, match="elastic bushing"):
             model.solve(Kinematics((0.95 * C, 0.0), (0.0, 0.0), OMEGA, 0.0))

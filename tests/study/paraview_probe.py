@@ -24,10 +24,14 @@ times = [float(v) for v in values] if hasattr(values, "__len__") else [float(val
 reader.UpdatePipeline(time)
 data = servermanager.Fetch(reader)
 names = sorted(reader.PointData.keys())
-print(json.dumps({
-    "timesteps": times,
-    "data_type": data.GetClassName(),
-    "n_points": reader.GetDataInformation().GetNumberOfPoints(),
-    "point_arrays": names,
-    "ranges": {name: list(reader.PointData[name].GetRange()) for name in names},
-}))
+print(
+    json.dumps(
+        {
+            "timesteps": times,
+            "data_type": data.GetClassName(),
+            "n_points": reader.GetDataInformation().GetNumberOfPoints(),
+            "point_arrays": names,
+            "ranges": {name: list(reader.PointData[name].GetRange()) for name in names},
+        }
+    )
+)

@@ -68,12 +68,17 @@ def open_summary(path: Path):
 def mpi_env() -> dict[str, str]:
     """Environment for starting mpirun from a test (no inherited Open MPI job state)."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "OMPI_MCA_orte", "PMIX_"))}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=str(ROOT),
-               OMPI_MCA_rmaps_base_oversubscribe="1")
+    env.update(
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        PYTHONPATH=str(ROOT),
+        OMPI_MCA_rmaps_base_oversubscribe="1",
+    )
     return env
 
 
 # -- a sweep of four short cases, then reruns -----------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def study(comm):
@@ -84,7 +89,8 @@ def study(comm):
         (root / "base" / "case.toml").write_text(f"[solver]\n{COARSE}")
         (root / "study.toml").write_text(
             '[sweep]\nbase = "base"\n[sweep.parameters]\n"solver.joint" = ["ideal", "short-bearing"]\n'
-            '"engine.speed_rpm" = [3000, 4000]\n')
+            '"engine.speed_rpm" = [3000, 4000]\n'
+        )
     comm.Barrier()
     status = main(["batch", str(root / "study.toml")])
     yield root, status
@@ -98,8 +104,12 @@ def test_four_cases_give_four_results_and_a_four_row_summary(comm, study):
     root, status = study
     assert status == 0
     cases = root / "study"
-    names = ["joint-ideal_speed_rpm-3000", "joint-ideal_speed_rpm-4000",
-             "joint-short-bearing_speed_rpm-3000", "joint-short-bearing_speed_rpm-4000"]
+    names = [
+        "joint-ideal_speed_rpm-3000",
+        "joint-ideal_speed_rpm-4000",
+        "joint-short-bearing_speed_rpm-3000",
+        "joint-short-bearing_speed_rpm-4000",
+    ]
     assert all(results_ok(cases / name) for name in names)
     ds = open_summary(cases / "summary.nc")
     assert list(ds["case"].values) == names and ds.sizes["case"] == 4
@@ -165,13 +175,20 @@ def test_rerun_after_an_interruption_runs_only_the_unfinished_cases(comm, study)
 
 # -- failures ---------------------------------------------------------------------------------------------
 
+
 @pytest.mark.mpi
 def test_bad_cases_are_recorded_and_the_others_go_on(comm, tempdir):
-    cases = write_cases(comm, tempdir, {
-        "a-good": IDEAL, "b-out-of-range": IDEAL + "[small_end]\nclearance_um = 20000\n",
-        "c-good": IDEAL.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]"),
-        "d-bad-toml": IDEAL + "[oil\n", "e-good": IDEAL.replace("[solver]", "[engine]\nspeed_rpm = 5000\n[solver]"),
-    })
+    cases = write_cases(
+        comm,
+        tempdir,
+        {
+            "a-good": IDEAL,
+            "b-out-of-range": IDEAL + "[small_end]\nclearance_um = 20000\n",
+            "c-good": IDEAL.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]"),
+            "d-bad-toml": IDEAL + "[oil\n",
+            "e-good": IDEAL.replace("[solver]", "[engine]\nspeed_rpm = 5000\n[solver]"),
+        },
+    )
     assert main(["batch", *map(str, cases)]) == 1
     for case in cases:
         assert results_ok(case) == case.name.endswith("good")
@@ -218,7 +235,12 @@ def test_an_exception_on_any_rank_of_a_group_fails_only_that_case(comm, tempdir,
     assert result.exit_status == 1
     if comm.rank == 0:
         status = {r["case"]: r for r in result.records}
-        assert [status[f"case{i}"]["status"] for i in range(4)] == ["complete", "failed", "complete", "complete"]
+        assert [status[f"case{i}"]["status"] for i in range(4)] == [
+            "complete",
+            "failed",
+            "complete",
+            "complete",
+        ]
         assert status["case1"]["error"] == "Boom: the film solver exploded"
         assert "Boom" in status["case1"]["traceback"]
     all_ran = sorted(sum(comm.allgather(ran), []))
@@ -231,7 +253,9 @@ def test_bad_batch_input_is_an_input_error_on_every_rank(comm, tempdir):
         main_raising(comm, ["batch", str(tempdir / "missing")])
     cases = write_cases(comm, tempdir, {"one": IDEAL})
     with pytest.raises(InputError, match="ranks-per-case"):
-        batch.run_batch(batch.BatchPlan(cases=tuple(cases), output=tempdir), comm, ranks_per_case=comm.size + 1)
+        batch.run_batch(
+            batch.BatchPlan(cases=tuple(cases), output=tempdir), comm, ranks_per_case=comm.size + 1
+        )
     assert main(["batch", str(tempdir / "missing")]) == 2
 
 
@@ -244,6 +268,7 @@ def main_raising(comm, argv):
 
 
 # -- ranks ------------------------------------------------------------------------------------------------
+
 
 @pytest.mark.mpi
 def test_groups_split_the_world(comm):
@@ -289,12 +314,18 @@ def test_one_and_two_ranks_give_identical_numbers(comm, tempdir):
     if comm.size < 2:
         pytest.skip("compares a 1-rank batch with a 2-rank one: run under mpirun -n 2")
 
-    specs = {"fast": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 4000\n[solver]"),
-             "slow": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]")}
+    specs = {
+        "fast": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 4000\n[solver]"),
+        "slow": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]"),
+    }
     variants = ["serial", "world", "group2"]
-    plans = {v: batch.BatchPlan(cases=tuple(write_cases(comm, tempdir / v, specs)), output=tempdir / v)
-             for v in variants}
-    plans["group2"] = dataclasses.replace(plans["group2"], cases=plans["group2"].cases[:1])  # one case will do
+    plans = {
+        v: batch.BatchPlan(cases=tuple(write_cases(comm, tempdir / v, specs)), output=tempdir / v)
+        for v in variants
+    }
+    plans["group2"] = dataclasses.replace(
+        plans["group2"], cases=plans["group2"].cases[:1]
+    )  # one case will do
     if comm.rank == 0:
         assert batch.run_batch(plans["serial"], MPI.COMM_SELF).exit_status == 0
     comm.Barrier()
@@ -305,18 +336,33 @@ def test_one_and_two_ranks_give_identical_numbers(comm, tempdir):
         other = open_summary(tempdir / variant / "summary.nc")
         names = list(other["case"].values)
         for name in ("h_min_min", "p_max_max", "F_asperity_max", "friction_power_mean"):
-            np.testing.assert_allclose(other[name].values, reference[name].sel(case=names).values, rtol=1e-12,
-                                       atol=0, equal_nan=True, err_msg=f"{variant}: {name}")
+            np.testing.assert_allclose(
+                other[name].values,
+                reference[name].sel(case=names).values,
+                rtol=1e-12,
+                atol=0,
+                equal_nan=True,
+                err_msg=f"{variant}: {name}",
+            )
         for case in names:
-            with xr.open_dataset(tempdir / "serial" / case / "results" / "results.nc") as a, \
-                    xr.open_dataset(tempdir / variant / case / "results" / "results.nc") as b:
+            with (
+                xr.open_dataset(tempdir / "serial" / case / "results" / "results.nc") as a,
+                xr.open_dataset(tempdir / variant / case / "results" / "results.nc") as b,
+            ):
                 for name in a.data_vars:
-                    np.testing.assert_allclose(b[name].values, a[name].values, rtol=1e-12, atol=0, equal_nan=True,
-                                               err_msg=f"{variant}/{case}: {name}")
+                    np.testing.assert_allclose(
+                        b[name].values,
+                        a[name].values,
+                        rtol=1e-12,
+                        atol=0,
+                        equal_nan=True,
+                        err_msg=f"{variant}/{case}: {name}",
+                    )
     assert np.all(np.isfinite(reference.h_min_min.values))
 
 
 # -- discovery and shards -----------------------------------------------------------------------------------
+
 
 @pytest.mark.serial
 def test_discovery(tmp_path):
@@ -344,16 +390,28 @@ def test_shards_are_disjoint_and_cover_the_batch():
 
 # -- a killed run -------------------------------------------------------------------------------------
 
+
 @pytest.mark.serial
 @pytest.mark.slow
 def test_a_killed_batch_leaves_no_half_written_results(tmp_path):
     """SIGKILL in the middle of the second case: every results.nc present is complete; the rerun skips it."""
-    cases = write_cases(MPI.COMM_SELF, tmp_path, {
-        "a": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 4000\n[solver]"),
-        "b": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]")})
+    cases = write_cases(
+        MPI.COMM_SELF,
+        tmp_path,
+        {
+            "a": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 4000\n[solver]"),
+            "b": SHORT.replace("[solver]", "[engine]\nspeed_rpm = 3000\n[solver]"),
+        },
+    )
     command = [sys.executable, "-m", "solver", "batch", *map(str, cases)]
-    process = subprocess.Popen(command, cwd=ROOT, env=mpi_env(), stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL, start_new_session=True)
+    process = subprocess.Popen(
+        command,
+        cwd=ROOT,
+        env=mpi_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     try:
         deadline = time.monotonic() + 120
         while not (cases[0] / "results" / "case_status.json").exists():
@@ -411,8 +469,9 @@ def run_script(script: Path, *args: str, **env: str) -> subprocess.CompletedProc
     for name in [k for k in environment if k.startswith("SLURM_")]:
         del environment[name]
     environment.update(PYTHON=sys.executable, PATH="/usr/bin:/bin", **env)  # no srun on this PATH
-    return subprocess.run(["bash", str(script), *args], cwd=ROOT, env=environment, capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run(
+        ["bash", str(script), *args], cwd=ROOT, env=environment, capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.serial
@@ -432,8 +491,13 @@ def test_slurm_array_script_runs_disjoint_shards_then_the_summary(tmp_path):
     assert run_script(SLURM / "batch_array.sbatch", str(sweep)).returncode == 2  # not an array task
     ran = []
     for task in ("0", "1"):
-        result = run_script(SLURM / "batch_array.sbatch", str(sweep), SLURM_ARRAY_TASK_ID=task,
-                            SLURM_ARRAY_TASK_MAX="1", NTASKS="1")
+        result = run_script(
+            SLURM / "batch_array.sbatch",
+            str(sweep),
+            SLURM_ARRAY_TASK_ID=task,
+            SLURM_ARRAY_TASK_MAX="1",
+            NTASKS="1",
+        )
         assert result.returncode == 0, result.stderr
         document = json.loads((tmp_path / "tiny" / f"batch_status.shard-{task}-of-2.json").read_text())
         ran.append([r["case"] for r in document["cases"] if r["status"] == "complete"])

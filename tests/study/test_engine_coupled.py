@@ -25,9 +25,25 @@ from solver.study.simulation import SimulationError, run_case
 from tests.conftest import ROOT, energy_balance, interrupt_and_resume, run_cli
 
 REFERENCE = ROOT / "cases" / "reference-2000rpm"
-CONTRACT = ["F_gas", "x_piston", "a_piston", "pin_force_x", "pin_force_y", "ideal_pin_force_x", "ideal_pin_force_y",
-            "ecc_x", "ecc_y", "eps", "h_min", "p_max", "F_hydro", "F_asperity", "friction_torque", "friction_power",
-            "crank_torque"]
+CONTRACT = [
+    "F_gas",
+    "x_piston",
+    "a_piston",
+    "pin_force_x",
+    "pin_force_y",
+    "ideal_pin_force_x",
+    "ideal_pin_force_y",
+    "ecc_x",
+    "ecc_y",
+    "eps",
+    "h_min",
+    "p_max",
+    "F_hydro",
+    "F_asperity",
+    "friction_torque",
+    "friction_power",
+    "crank_torque",
+]
 
 
 def make_case(directory: Path, solver: str, extra: str = "") -> Path:
@@ -35,16 +51,22 @@ def make_case(directory: Path, solver: str, extra: str = "") -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     text = (REFERENCE / "case.toml").read_text()
     head = text.split("[solver]")[0]
-    (directory / "case.toml").write_text(head.replace('name = "reference-2000rpm"', f'name = "{directory.name}"')
-                                         + extra + "\n[solver]\n" + solver)
+    (directory / "case.toml").write_text(
+        head.replace('name = "reference-2000rpm"', f'name = "{directory.name}"')
+        + extra
+        + "\n[solver]\n"
+        + solver
+    )
     return directory
 
 
 @pytest.fixture(scope="module")
 def short_bearing_run(tmp_path_factory):
     """Two cycles of the reference engine with the short-bearing small end, 1 deg outputs, rtol 1e-8."""
-    case = make_case(tmp_path_factory.mktemp("sb") / "short",
-                     'joint = "short-bearing"\nmax_cycles = 2\nrtol = 1e-8\nstep_deg = 1\n')
+    case = make_case(
+        tmp_path_factory.mktemp("sb") / "short",
+        'joint = "short-bearing"\nmax_cycles = 2\nrtol = 1e-8\nstep_deg = 1\n',
+    )
     summary = run_case(case, MPI.COMM_SELF)
     with xr.open_dataset(summary.results) as ds:
         yield summary, ds.load()
@@ -74,8 +96,9 @@ def test_energy_balance_over_a_periodic_cycle(short_bearing_run):
     assert summary.periodic
     t = ds.time.values
     work_in = simpson(ds.input_power.values, x=t)
-    energy_change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0]
-                          - ds.potential_energy[0])
+    energy_change = float(
+        ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0]
+    )
     dissipated = simpson(ds.dissipated_power.values, x=t)
     assert dissipated > 0
     assert work_in - energy_change == pytest.approx(dissipated, rel=0.01)
@@ -91,8 +114,12 @@ def test_energy_audit_closes_the_balance_of_the_cycle(short_bearing_run):
     with Simpson's rule on the outputs' dissipated power (smooth in this run) to 1e-3 (measured 6e-4);
     all three start at 0."""
     _, ds = short_bearing_run
-    change = float(ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0])
-    dissipated, drift, work = (float(ds[name][-1]) for name in ("dissipated_energy", "drift_work", "input_work"))
+    change = float(
+        ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0]
+    )
+    dissipated, drift, work = (
+        float(ds[name][-1]) for name in ("dissipated_energy", "drift_work", "input_work")
+    )
     assert float(ds.input_work[0]) == float(ds.dissipated_energy[0]) == float(ds.drift_work[0]) == 0.0
     assert abs(work - change - dissipated + drift) < 1e-3 * dissipated
     assert abs(drift) > 1e-3 * dissipated
@@ -142,8 +169,10 @@ def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
     held to three cycles; a tolerance between its second and third cycles' friction changes must stop
     the run after exactly three cycles, where the h_min test alone (0.5 of the clearance) stops after two."""
     keys = 'joint = "short-bearing"\nstep_deg = 5\nfield_step_deg = 0\nperiodic_tolerance = 0.5\n'
-    held = run_case(make_case(tmp_path / "held", keys + "max_cycles = 3\nperiodic_friction_tolerance = "
-                              "1e-15\n"), MPI.COMM_SELF)
+    held = run_case(
+        make_case(tmp_path / "held", keys + "max_cycles = 3\nperiodic_friction_tolerance = 1e-15\n"),
+        MPI.COMM_SELF,
+    )
     with xr.open_dataset(held.results) as ds:
         friction, h_min = ds.attrs["history.friction_power_mean"], ds.attrs["history.h_min_min"]
         assert ds.attrs["periodic"] == "false" and ds.attrs["solver.periodic_friction_tolerance"] == 1e-15
@@ -153,8 +182,12 @@ def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
     change = np.abs(np.diff(friction)) / np.abs(friction[1:])
     assert change[1] < change[0]  # the friction settles; between them the tolerance
     tolerance = math.sqrt(change[0] * change[1])
-    stopped = run_case(make_case(tmp_path / "stopped", keys + "max_cycles = 5\nperiodic_friction_tolerance"
-                                 f" = {tolerance!r}\n"), MPI.COMM_SELF)
+    stopped = run_case(
+        make_case(
+            tmp_path / "stopped", keys + f"max_cycles = 5\nperiodic_friction_tolerance = {tolerance!r}\n"
+        ),
+        MPI.COMM_SELF,
+    )
     assert stopped.cycles == 3 and stopped.periodic
     assert stopped.friction_power_mean == pytest.approx(held.friction_power_mean, rel=1e-12)
     loose = run_case(make_case(tmp_path / "loose", keys + "max_cycles = 5\n"), MPI.COMM_SELF)
@@ -170,8 +203,11 @@ def test_failure_names_the_crank_angle(tmp_path, monkeypatch):
     original = ShortBearingJoint.forces
 
     def failing(self, ecc, ecc_rate, omega_rel, t, jacobian=False):
-        return _NAN_FORCES if t > math.radians(100) / (2000 * math.pi / 30) else original(self, ecc, ecc_rate,
-                                                                                             omega_rel, t, jacobian)
+        return (
+            _NAN_FORCES
+            if t > math.radians(100) / (2000 * math.pi / 30)
+            else original(self, ecc, ecc_rate, omega_rel, t, jacobian)
+        )
 
     monkeypatch.setattr(ShortBearingJoint, "forces", failing)
     case = make_case(tmp_path / "failing", 'joint = "short-bearing"\nmax_cycles = 1\nstep_deg = 5\n')
@@ -181,13 +217,16 @@ def test_failure_names_the_crank_angle(tmp_path, monkeypatch):
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("text, field", [
-    ("[solver]\njoint = \"magic\"\n", "solver.joint"),
-    ("[solver]\nmesh_size = 0\n", "solver.mesh_size"),
-    ("[engine]\nrod_mass_kg = -1\n", "engine.rod_mass_kg"),
-    ("[oil]\nviscosity = 0.01\n", "oil.viscosity"),
-    ("[small_end]\nclearance_um = \"ten\"\n", "small_end.clearance_um"),
-])
+@pytest.mark.parametrize(
+    "text, field",
+    [
+        ('[solver]\njoint = "magic"\n', "solver.joint"),
+        ("[solver]\nmesh_size = 0\n", "solver.mesh_size"),
+        ("[engine]\nrod_mass_kg = -1\n", "engine.rod_mass_kg"),
+        ("[oil]\nviscosity = 0.01\n", "oil.viscosity"),
+        ('[small_end]\nclearance_um = "ten"\n', "small_end.clearance_um"),
+    ],
+)
 def test_run_bad_case_is_one_line_exit_2(tmp_path, text, field):
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "case.toml").write_text(text)
@@ -209,12 +248,21 @@ def coarse_run(tmp_path_factory):
     if MPI.COMM_WORLD.size > 1:
         pytest.skip("serial (a subprocess run)")
     base = tmp_path_factory.mktemp("coarse")
-    case = make_case(base / "reference-coarse", 'joint = "mixed-fem"\nmax_cycles = 1\nstep_deg = 5\n'
-                     'mesh_size = 0.15\nfield_angles_deg = [0, 380]\nfield_step_deg = 10\n')
+    case = make_case(
+        base / "reference-coarse",
+        'joint = "mixed-fem"\nmax_cycles = 1\nstep_deg = 5\n'
+        "mesh_size = 0.15\nfield_angles_deg = [0, 380]\nfield_step_deg = 10\n",
+    )
     env = {**os.environ, "PYTHONPATH": str(ROOT), "XDG_CACHE_HOME": str(base / "cache")}
     env.pop("OMPI_COMM_WORLD_SIZE", None)
-    proc = subprocess.run([sys.executable, "-m", "solver", "run", str(case), "--json"], capture_output=True,
-                          text=True, cwd=ROOT, timeout=1200, env=env)
+    proc = subprocess.run(
+        [sys.executable, "-m", "solver", "run", str(case), "--json"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=1200,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr
     return case, proc
 
@@ -249,7 +297,9 @@ def test_the_terminal_shows_only_what_matters(coarse_run):
     lines = [line.strip() for line in proc.stderr.replace("\r", "\n").splitlines()]
     lines = [line for line in lines if line and "deg [" not in line]  # the progress bar's redraws
     assert sum("compiling the film's forms" in line for line in lines) == 1, proc.stderr
-    assert not [line for line in lines if "gcc" in line or line.startswith("INFO:") or "-I/usr" in line], proc.stderr
+    assert not [line for line in lines if "gcc" in line or line.startswith("INFO:") or "-I/usr" in line], (
+        proc.stderr
+    )
     assert len(lines) == len(set(lines)), proc.stderr
     assert all(line.startswith(("INFO solver.", "WARNING solver.")) for line in lines), proc.stderr
     assert any("finished in" in line for line in lines)
@@ -262,8 +312,11 @@ def test_the_run_records_where_the_time_goes(coarse_run):
     once and every solve takes at least one VI iteration; the log line carries the same counts."""
     case, _ = coarse_run
     with xr.open_dataset(case / "results" / "results.nc") as ds:
-        t = {k.removeprefix("timing."): np.atleast_1d(v) for k, v in ds.attrs.items() if k.startswith("timing.")
-             and k not in ("timing.description", "timing.fields_io_s")}
+        t = {
+            k.removeprefix("timing."): np.atleast_1d(v)
+            for k, v in ds.attrs.items()
+            if k.startswith("timing.") and k not in ("timing.description", "timing.fields_io_s")
+        }
         assert float(ds.attrs["timing.fields_io_s"]) > 0
         assert len(t["wall_s"]) == int(ds.attrs["cycles"]) == 1
     parts = t["film_solve_s"] + t["film_jacobian_s"] + t["multibody_s"] + t["io_s"]
@@ -275,7 +328,6 @@ def test_the_run_records_where_the_time_goes(coarse_run):
     line = next(row for row in log_text.splitlines() if "film solves" in row)
     assert f"{t['film_solves'][0]:.0f} film solves ({t['vi_iterations'][0]:.0f} VI iterations)" in line
     assert f"{t['steps'][0]:.0f} steps ({t['rejected_steps'][0]:.0f} rejected)" in line
-
 
 
 @pytest.mark.serial
@@ -297,8 +349,13 @@ def test_paraview_plays_the_cycle(coarse_run):
     env.pop("DISPLAY", None)  # headless: reading renders nothing
     series = case / "results" / "film_series.xdmf"
     probe = Path(__file__).with_name("paraview_probe.py")
-    done = subprocess.run([pvbatch, "--no-mpi", str(probe), str(series), "380"], capture_output=True, text=True,
-                          timeout=300, env=env)
+    done = subprocess.run(
+        [pvbatch, "--no-mpi", str(probe), str(series), "380"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert done.returncode == 0, done.stderr
     seen = json.loads(next(line for line in done.stdout.splitlines() if line.startswith("{")))
     assert seen["timesteps"] == [float(a) for a in range(0, 721, 10)]

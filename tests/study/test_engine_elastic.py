@@ -32,9 +32,10 @@ def winkler_run(tmp_path_factory):
     from solver.errors import FilmNotConverged
     from solver.film.bearing import FilmModel
 
-    case = make_case(tmp_path_factory.mktemp("ehd") / "winkler",
-                     "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\n"
-                     "field_angles_deg = [380, 390]\n")
+    case = make_case(
+        tmp_path_factory.mktemp("ehd") / "winkler",
+        "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\nfield_angles_deg = [380, 390]\n",
+    )
     toml = case / "case.toml"
     text = toml.read_text()
     assert 'elastic = "none"' in text
@@ -124,7 +125,9 @@ def test_the_fields_show_the_runs_deformation(winkler_run):
     """The snapshot at 380 deg solves the film again from the committed state the run's output there
     started from (its deformation's rate): the same deformation as the results (1e-6 relative)."""
     ds, snapshots, _ = winkler_run
-    assert math.isclose(snapshots["film_380.0deg"], float(ds.deformation_max.sel(crank_angle=380)), rel_tol=1e-6)
+    assert math.isclose(
+        snapshots["film_380.0deg"], float(ds.deformation_max.sel(crank_angle=380)), rel_tol=1e-6
+    )
 
 
 @pytest.mark.serial
@@ -135,7 +138,10 @@ def test_a_snapshot_that_cannot_be_solved_is_left_out_with_a_warning(winkler_run
     assert ds.attrs["status"] == "complete" and "film_390.0deg" not in snapshots
     assert not (case / "results" / "film_390.0deg.xdmf").exists()
     assert (case / "results" / "film_380.0deg.xdmf").exists()
-    assert "ParaView fields at 390.0 deg left out: made to fail by the test" in (case / "results" / "run.log").read_text()
+    assert (
+        "ParaView fields at 390.0 deg left out: made to fail by the test"
+        in (case / "results" / "run.log").read_text()
+    )
 
 
 @pytest.mark.serial
@@ -151,17 +157,21 @@ def test_the_checkpoint_keeps_the_deformation_history(tmp_path):
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     kin = lambda eps: Kinematics((0.0, -eps * C), (0.0, 0.0), OMEGA, 0.0)  # noqa: E731
     layer = WinklerLayer(thickness=T_BUSHING, E=E_BUSHING, nu=NU_BUSHING)
-    models = [FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=layer) for _ in range(3)]
+    models = [
+        FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=layer) for _ in range(3)
+    ]
     try:
         original, resumed, fresh = models
         original.solve(kin(0.8))
-        original.commit_deformation(original.deformation_state(), 0.0)
+        original.commit_history(original.history_state(), 0.0)
         original.solve(kin(0.9), 1e-5)
-        original.commit_deformation(original.deformation_state(), 1e-5)
+        original.commit_history(original.history_state(), 1e-5)
         path = tmp_path / "checkpoint.npz"
-        write_checkpoint(path, "case", 1, 1e-5, np.zeros(9), np.zeros(9), [1e-6], film=original.deformation_history())
+        write_checkpoint(
+            path, "case", 1, 1e-5, np.zeros(9), np.zeros(9), [1e-6], film=original.committed_history()
+        )
         for time_s, state in read_checkpoint(path, "case")[7]:
-            resumed.commit_deformation(state, time_s)
+            resumed.commit_history(state, time_s)
         expected = original.solve(kin(0.95), 2e-5).load
         assert resumed.solve(kin(0.95), 2e-5).load == pytest.approx(expected, rel=1e-8)
         assert abs(fresh.solve(kin(0.95), 2e-5).load - expected) > 1e-2 * expected

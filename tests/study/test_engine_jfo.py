@@ -10,10 +10,11 @@ energy dissipated in the joint), which holds on these coarse runs too.
 
 from __future__ import annotations
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import xarray as xr
-from mpi4py import MPI
 from scipy.integrate import simpson
 
 from solver.study.simulation import run_case
@@ -29,7 +30,7 @@ def _jfo_case(directory):
     toml = case / "case.toml"
     text = toml.read_text()
     # the reference case documents every key: replace its [oil] values rather than adding a section
-    text = text.replace('cavitation_pressure_bar = 0.0', 'cavitation_pressure_bar = -0.9', 1)
+    text = text.replace("cavitation_pressure_bar = 0.0", "cavitation_pressure_bar = -0.9", 1)
     text = text.replace('cavitation = "reynolds"', 'cavitation = "jfo"', 1)
     assert 'cavitation = "jfo"' in text and "cavitation_pressure_bar = -0.9" in text
     toml.write_text(text)
@@ -130,12 +131,20 @@ def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, m
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("old, new, message", [
-    # the max-gap inlet turns the film with the pin, which a film fraction's history cannot follow
-    ('inlet = "none"', 'inlet = "max-gap"', "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'"),
-    # inlet none, no supply, edges at the cavitation pressure: no oil can enter but along the edges
-    ("cavitation_pressure_bar = -0.9", "cavitation_pressure_bar = 0.0", "oil.cavitation_pressure_bar = 0 is out of range"),
-], ids=["max-gap", "sealed-edges"])
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        # the max-gap inlet turns the film with the pin, which a film fraction's history cannot follow
+        ('inlet = "none"', 'inlet = "max-gap"', "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'"),
+        # inlet none, no supply, edges at the cavitation pressure: no oil can enter but along the edges
+        (
+            "cavitation_pressure_bar = -0.9",
+            "cavitation_pressure_bar = 0.0",
+            "oil.cavitation_pressure_bar = 0 is out of range",
+        ),
+    ],
+    ids=["max-gap", "sealed-edges"],
+)
 def test_jfo_refuses_a_case_in_one_line(tmp_path, old, new, message):
     """What the JFO film cannot take: one line naming the key and what is allowed, exit 2, nothing written."""
     case = _jfo_case(tmp_path / "refused")
@@ -156,12 +165,14 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
     oil balance from results.nc within 3 % of the side flow's integral (the coarse rigid cycle: 0.8 %
     at 1 deg; this one's first cycle starts from a centred pin and a full film); the energy audit
     within 1 % of the dissipated energy (measured -0.27 %; the outputs' Simpson: +20 %)."""
-    case = make_case(tmp_path / "winkler-jfo", "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\n"
-                                               "field_angles_deg = []\n")
+    case = make_case(
+        tmp_path / "winkler-jfo",
+        "max_cycles = 1\nstep_deg = 5\nmesh_size = 0.15\nfield_step_deg = 0\nfield_angles_deg = []\n",
+    )
     toml = case / "case.toml"
     text = toml.read_text()
     text = text.replace('elastic = "none"', 'elastic = "winkler"\nbushing_thickness_mm = 1.5', 1)
-    text = text.replace('cavitation_pressure_bar = 0.0', 'cavitation_pressure_bar = -0.9', 1)
+    text = text.replace("cavitation_pressure_bar = 0.0", "cavitation_pressure_bar = -0.9", 1)
     text = text.replace('cavitation = "reynolds"', 'cavitation = "jfo"', 1)
     toml.write_text(text)
     summary = run_case(case, MPI.COMM_SELF)
@@ -176,4 +187,3 @@ def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
         assert abs(closure) < 0.03
         audit, _ = energy_balance(ds)
         assert abs(audit) < 0.01, audit
-

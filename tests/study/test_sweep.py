@@ -24,7 +24,9 @@ ROOT = Path(__file__).resolve().parents[2]
 def base_case(tmp_path: Path, extra: str = "", files: dict[str, str] | None = None) -> Path:
     base = tmp_path / "base"
     base.mkdir(exist_ok=True)
-    (base / "case.toml").write_text('name = "base"\ndescription = "the base"\n[solver]\njoint = "ideal"\n' + extra)
+    (base / "case.toml").write_text(
+        'name = "base"\ndescription = "the base"\n[solver]\njoint = "ideal"\n' + extra
+    )
     for name, text in (files or {}).items():
         (base / name).parent.mkdir(parents=True, exist_ok=True)
         (base / name).write_text(text)
@@ -53,8 +55,12 @@ def test_product_order_names_and_values(tmp_path):
     assert sweep.cases_dir == (tmp_path / "study").resolve()
     assert sweep.keys == ["engine.speed_rpm", "small_end.clearance_um"]
     names = sweep.names()
-    assert names[:4] == ["speed_rpm-1000_clearance_um-5", "speed_rpm-1000_clearance_um-10",
-                         "speed_rpm-1000_clearance_um-15", "speed_rpm-2000_clearance_um-5"]
+    assert names[:4] == [
+        "speed_rpm-1000_clearance_um-5",
+        "speed_rpm-1000_clearance_um-10",
+        "speed_rpm-1000_clearance_um-15",
+        "speed_rpm-2000_clearance_um-5",
+    ]
     assert len(names) == 9
     dirs = expand(sweep)
     assert [d.name for d in dirs] == names
@@ -85,14 +91,17 @@ mode = "zip"
         load_sweep(bad)
 
 
-@pytest.mark.parametrize("spec, expected", [
-    ("{start = 0.005, stop = 0.02, step = 0.005}", [0.005, 0.01, 0.015, 0.02]),  # stop included
-    ("{start = 0.1, stop = 0.7, step = 0.2}", [0.1, 0.3, 0.5, 0.7]),  # 0.1 + 0.2 written as 0.3
-    ("{start = 0.01, stop = 0.02, num = 3}", [0.01, 0.015, 0.02]),
-    ("{start = 0.01, stop = 0.02, num = 1}", [0.01]),
-    ("{start = 0.02, stop = 0.005, step = -0.005}", [0.02, 0.015, 0.01, 0.005]),
-    ("{start = 0.01, stop = 0.025, step = 0.01}", [0.01, 0.02]),  # stop not on the grid
-])
+@pytest.mark.parametrize(
+    "spec, expected",
+    [
+        ("{start = 0.005, stop = 0.02, step = 0.005}", [0.005, 0.01, 0.015, 0.02]),  # stop included
+        ("{start = 0.1, stop = 0.7, step = 0.2}", [0.1, 0.3, 0.5, 0.7]),  # 0.1 + 0.2 written as 0.3
+        ("{start = 0.01, stop = 0.02, num = 3}", [0.01, 0.015, 0.02]),
+        ("{start = 0.01, stop = 0.02, num = 1}", [0.01]),
+        ("{start = 0.02, stop = 0.005, step = -0.005}", [0.02, 0.015, 0.01, 0.005]),
+        ("{start = 0.01, stop = 0.025, step = 0.01}", [0.01, 0.02]),  # stop not on the grid
+    ],
+)
 def test_ranges(tmp_path, spec, expected):
     base_case(tmp_path)
     sweep = load_sweep(sweep_file(tmp_path, f'[sweep.parameters]\n"oil.viscosity_Pa_s" = {spec}\n'))
@@ -102,8 +111,10 @@ def test_ranges(tmp_path, spec, expected):
 
 def test_integer_ranges_stay_integers(tmp_path):
     base_case(tmp_path)
-    body = '[sweep.parameters]\n"engine.speed_rpm" = {start = 1000, stop = 3000, step = 1000}\n' \
-           '"solver.max_cycles" = {start = 1, stop = 3, num = 3}\n'
+    body = (
+        '[sweep.parameters]\n"engine.speed_rpm" = {start = 1000, stop = 3000, step = 1000}\n'
+        '"solver.max_cycles" = {start = 1, stop = 3, num = 3}\n'
+    )
     sweep = load_sweep(sweep_file(tmp_path, body))
     assert [type(v) for v in sweep.parameters[0][1]] == [int] * 3
     assert sweep.parameters[1][1] == (1, 2, 3)
@@ -112,18 +123,40 @@ def test_integer_ranges_stay_integers(tmp_path):
 
 def test_dotted_keys_and_subtables_mean_the_same(tmp_path):
     base_case(tmp_path)
-    quoted = load_sweep(sweep_file(tmp_path, '[sweep.parameters]\n"engine.speed_rpm" = [1000]\n'
-                                             '"oil.viscosity_Pa_s" = [0.01]\n', name="a.toml"))
-    dotted = load_sweep(sweep_file(tmp_path, "[sweep.parameters]\nengine.speed_rpm = [1000]\n"
-                                             "oil.viscosity_Pa_s = [0.01]\n", name="b.toml"))
-    table = load_sweep(sweep_file(tmp_path, "[sweep.parameters.engine]\nspeed_rpm = [1000]\n"
-                                            "[sweep.parameters.oil]\nviscosity_Pa_s = [0.01]\n", name="c.toml"))
+    quoted = load_sweep(
+        sweep_file(
+            tmp_path,
+            '[sweep.parameters]\n"engine.speed_rpm" = [1000]\n"oil.viscosity_Pa_s" = [0.01]\n',
+            name="a.toml",
+        )
+    )
+    dotted = load_sweep(
+        sweep_file(
+            tmp_path,
+            "[sweep.parameters]\nengine.speed_rpm = [1000]\noil.viscosity_Pa_s = [0.01]\n",
+            name="b.toml",
+        )
+    )
+    table = load_sweep(
+        sweep_file(
+            tmp_path,
+            "[sweep.parameters.engine]\nspeed_rpm = [1000]\n"
+            "[sweep.parameters.oil]\nviscosity_Pa_s = [0.01]\n",
+            name="c.toml",
+        )
+    )
     assert quoted.parameters == dotted.parameters == table.parameters
 
 
 def test_names_use_the_section_when_keys_clash_and_sanitise_strings():
-    assert case_name({"surface.nu_pin": 0.3, "solver.joint": "short-bearing"}) == "nu_pin-0.3_joint-short-bearing"
-    assert case_name({"oil.viscosity_Pa_s": 1e-5, "engine.gravity": False}) == "viscosity_Pa_s-1e-05_gravity-false"
+    assert (
+        case_name({"surface.nu_pin": 0.3, "solver.joint": "short-bearing"})
+        == "nu_pin-0.3_joint-short-bearing"
+    )
+    assert (
+        case_name({"oil.viscosity_Pa_s": 1e-5, "engine.gravity": False})
+        == "viscosity_Pa_s-1e-05_gravity-false"
+    )
     assert case_name({"gas.pressure_file": "traces/p 4000.csv"}) == "pressure_file-p-4000"
 
 
@@ -169,21 +202,39 @@ def test_data_files_are_copied(tmp_path):
         assert load_case(directory).gas.pressure_file == (directory / "p.csv").resolve()
 
 
-@pytest.mark.parametrize("body, fragments", [
-    ('[sweep.parameters]\n"engine.sped_rpm" = [1]\n', ["unknown case key engine.sped_rpm", "engine.speed_rpm"]),
-    ('[sweep.parameters]\n"motor.speed_rpm" = [1]\n', ["unknown case key motor.speed_rpm", "engine.speed_rpm"]),
-    ('[sweep.parameters]\n"xyz.abc" = [1]\n', ["unknown case key xyz.abc", "section of engine"]),
-    ('[sweep.parameters]\n"engine.speed_rpm" = ["fast"]\n', ["engine.speed_rpm", "expected a number"]),
-    ('[sweep.parameters]\n"solver.joint" = ["wet"]\n', ["solver.joint", "allowed"]),
-    ('[sweep.parameters]\n"engine.speed_rpm" = {start = 1, stop = 2}\n', ["engine.speed_rpm", "num", "step"]),
-    ('[sweep.parameters]\n"engine.speed_rpm" = {start = 1, stop = 2, step = -1}\n', ["step", "out of range"]),
-    ('[sweep.parameters]\n"engine.speed_rpm" = 1000\n', ["engine.speed_rpm", "list"]),
-    ('[sweep.parameters]\n"solver.field_angles_deg" = [[0]]\n', ["solver.field_angles_deg", "cannot be swept"]),
-    ('[sweep.parameters]\nname = ["a"]\n', ["name", "cannot be set"]),
-    ('[sweep.parameters]\n', ["sweep.parameters", "required"]),
-    ('[sweep.parameters]\n"engine.speed_rpm" = [1]\n[sweep.set]\n"engine.speed_rpm" = 2\n', ["both"]),
-    ('mdoe = "zip"\n[sweep.parameters]\n"engine.speed_rpm" = [1]\n', ["sweep.mdoe", "sweep.mode"]),
-])
+@pytest.mark.parametrize(
+    "body, fragments",
+    [
+        (
+            '[sweep.parameters]\n"engine.sped_rpm" = [1]\n',
+            ["unknown case key engine.sped_rpm", "engine.speed_rpm"],
+        ),
+        (
+            '[sweep.parameters]\n"motor.speed_rpm" = [1]\n',
+            ["unknown case key motor.speed_rpm", "engine.speed_rpm"],
+        ),
+        ('[sweep.parameters]\n"xyz.abc" = [1]\n', ["unknown case key xyz.abc", "section of engine"]),
+        ('[sweep.parameters]\n"engine.speed_rpm" = ["fast"]\n', ["engine.speed_rpm", "expected a number"]),
+        ('[sweep.parameters]\n"solver.joint" = ["wet"]\n', ["solver.joint", "allowed"]),
+        (
+            '[sweep.parameters]\n"engine.speed_rpm" = {start = 1, stop = 2}\n',
+            ["engine.speed_rpm", "num", "step"],
+        ),
+        (
+            '[sweep.parameters]\n"engine.speed_rpm" = {start = 1, stop = 2, step = -1}\n',
+            ["step", "out of range"],
+        ),
+        ('[sweep.parameters]\n"engine.speed_rpm" = 1000\n', ["engine.speed_rpm", "list"]),
+        (
+            '[sweep.parameters]\n"solver.field_angles_deg" = [[0]]\n',
+            ["solver.field_angles_deg", "cannot be swept"],
+        ),
+        ('[sweep.parameters]\nname = ["a"]\n', ["name", "cannot be set"]),
+        ("[sweep.parameters]\n", ["sweep.parameters", "required"]),
+        ('[sweep.parameters]\n"engine.speed_rpm" = [1]\n[sweep.set]\n"engine.speed_rpm" = 2\n', ["both"]),
+        ('mdoe = "zip"\n[sweep.parameters]\n"engine.speed_rpm" = [1]\n', ["sweep.mdoe", "sweep.mode"]),
+    ],
+)
 def test_bad_sweep_is_one_line_naming_the_key(tmp_path, body, fragments):
     base_case(tmp_path)
     with pytest.raises(InputError) as info:
@@ -208,7 +259,9 @@ def test_missing_base_and_duplicate_names(tmp_path):
     with pytest.raises(InputError, match="case file not found"):
         load_sweep(sweep_file(tmp_path, '[sweep.parameters]\n"engine.speed_rpm" = [1]\n', base="nowhere"))
     base_case(tmp_path)
-    sweep = load_sweep(sweep_file(tmp_path, '[sweep.parameters]\n"engine.speed_rpm" = [1000, 1000.0000000000001]\n'))
+    sweep = load_sweep(
+        sweep_file(tmp_path, '[sweep.parameters]\n"engine.speed_rpm" = [1000, 1000.0000000000001]\n')
+    )
     with pytest.raises(InputError, match="both get the name speed_rpm-1000"):
         expand(sweep)
 
@@ -225,8 +278,14 @@ def test_cli_bad_sweep_is_exit_2_one_line(tmp_path):
     base_case(tmp_path)
     path = sweep_file(tmp_path, '[sweep.parameters]\n"engine.sped_rpm" = [1000]\n')
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
-    result = subprocess.run([sys.executable, "-m", "solver", "batch", str(path), "--list"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=120, env=env)
+    result = subprocess.run(
+        [sys.executable, "-m", "solver", "batch", str(path), "--list"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+    )
     assert result.returncode == 2, result.stderr
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and "engine.sped_rpm" in lines[0], result.stderr
