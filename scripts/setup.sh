@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up what is missing on a Debian 12 machine, idempotently: Debian packages (dolfinx, gmsh,
 # PETSc, MPI, xarray, netCDF4, matplotlib, tqdm, scipy, pytest, ParaView for a test, OpenBLAS), then a virtual environment .venv made
-# from /usr/bin/python3 with --system-site-packages, this package installed editable and import-linter.
+# from /usr/bin/python3 with --system-site-packages, this package installed editable, ruff and import-linter.
 # The second run only checks and takes a second or two.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,6 +31,12 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
     echo "setup: installing the package (editable)" >&2
     .venv/bin/python3 -m pip install -q --no-build-isolation --no-deps -e . >/dev/null
     touch "$stamp"
+fi
+# ruff checks and formats the code (scripts/test.sh); not packaged by Debian 12: from PyPI, pinned
+if ! .venv/bin/python3 -m ruff --version 2>/dev/null | grep -q "ruff 0.17.6"; then
+    echo "setup: installing ruff (PyPI) into .venv" >&2
+    .venv/bin/python3 -m pip install -q --disable-pip-version-check "ruff==0.17.6" 2>&1 | grep -v "^WARNING: Location" >&2 || true
+    .venv/bin/python3 -m ruff --version >/dev/null
 fi
 # import-linter checks the package's layers (tests/test_layers.py); not packaged by Debian 12: from PyPI
 if ! .venv/bin/python3 -c "import importlinter" 2>/dev/null; then
