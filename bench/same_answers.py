@@ -77,7 +77,8 @@ def answers(case: Path, joint: str | None) -> dict[str, float]:
         "p_max_max": report["p_max_max_Pa"],
         "friction_power_mean": report["friction_power_mean_W"],
     }
-    with xr.open_dataset(Path(report["results"]) / "results.nc") as ds:
+    results = ROOT / report["results"]  # (relative paths: to the directory the command ran in)
+    with xr.open_dataset(results / "results.nc" if results.is_dir() else results) as ds:
         out.update({name: float(ds[name].values[-1]) for name in AUDIT})
     out["wall_s"] = time.perf_counter() - start
     return out
