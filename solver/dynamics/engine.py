@@ -542,7 +542,8 @@ def simulate_ideal(
             (exact to round-off, the prescribed crank makes the system kinematically determined) and
             lambda from the augmented system; ``"explicit"`` or ``"implicit"``: integrate the equations
             of motion with error control (solver.dynamics.integrate) from the assembled state at 0 deg.
-        method: integrator (default ``"RK45"`` explicit, ``"ESDIRK32"`` implicit; see solver.dynamics.integrate).
+        method: integrator (default ``"RK45"`` explicit, ``"ESDIRK32"`` implicit;
+            see solver.dynamics.integrate).
         rtol: relative tolerance of the integrators.
         atol: absolute tolerance (default: ``rtol`` x 1e-3 m on positions, scaled by the crank speed for
             velocities).

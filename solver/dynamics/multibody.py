@@ -21,8 +21,8 @@ frame). A body index ``None`` is the ground (fixed, frame = global frame).
 
 Force elements (:class:`Gravity`, :class:`AppliedForce`, :class:`AppliedTorque`,
 :class:`ClearanceJointElement`) return the generalized force ``Q`` and, on request, its Jacobians
-``dQ/dq`` and ``dQ/dqd`` that the implicit integrator needs (solver.dynamics.integrate). The clearance joint is
-the interface of DESIGN 3.1: the element computes the eccentricity of the journal in the bushing
+``dQ/dq`` and ``dQ/dqd`` that the implicit integrator needs (solver.dynamics.integrate). The clearance
+joint is the interface of DESIGN 3.1: the element computes the eccentricity of the journal in the bushing
 frame and its rate from the two bodies' coordinates, hands them to a :class:`ClearanceJoint` (a film
 model later, :class:`LinearClearanceJoint` now) and maps the returned forces and their Jacobians back
 to both bodies by the chain rule.
