@@ -37,6 +37,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "many operating points (case directories or a sweep file) across MPI ranks",
     ),
     "compare": ("solver.cli.compare", "finished runs side by side: a table and a plot over the crank angle"),
+    "docs": (
+        "solver.cli.docs",
+        "write (or --check) the generated pages docs/case-reference.md and docs/results-reference.md",
+    ),
 }
 
 
