@@ -272,12 +272,6 @@ def test_reference_table_lists_every_field_with_default_and_range():
     assert "| `gas.combustion_start_deg` | deg | 350 | (180, 540) |" in table
 
 
-def test_the_readme_shows_the_current_case_table():
-    """The README's case-format table is exactly the one generated from FIELDS (kept current)."""
-    readme = (ROOT / "README.md").read_text()
-    assert case_reference_markdown().strip() in readme
-
-
 def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     """oil.grade, or the three data-sheet values, replace viscosity_Pa_s: the film's viscosity is the
     ASTM D341 viscosity at oil.temperature_C times the density there (solver.oil, tested against the
