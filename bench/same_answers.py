@@ -112,14 +112,17 @@ def main() -> int:
             for key, value in found[name].items():
                 if key == "wall_s":
                     continue
-                line += f"  {key} {value:.10g}"
+                line += f"  {key} {value!r}"
                 if name in saved:
                     change = relative(value, saved[name][key])
                     worst = max(worst, change)
                     line += f" ({change:.1e})"
             print(line, flush=True)
-    if args.save:
-        args.save.write_text(json.dumps(found, indent=1) + "\n")
+            if args.save:  # after each case, added to what the file holds (a long run keeps what it did)
+                kept = json.loads(args.save.read_text()) if args.save.exists() else {}
+                part = args.save.with_name(args.save.name + ".part")
+                part.write_text(json.dumps({**kept, **found}, indent=1) + "\n")
+                part.replace(args.save)
     if saved:
         print(f"largest relative change: {worst:.2e} (allowed {args.rtol:g})")
         return 0 if worst <= args.rtol else 1
