@@ -98,7 +98,7 @@ class Trajectory:
     stage_integral: np.ndarray | None = None
 
 
-class _System:
+class OdeSystem:
     """The ODE right-hand side and its Jacobian, with counters and a one-entry cache."""
 
     #: relative step of the forward differences of the constraint residual (sqrt of the machine epsilon)
@@ -138,7 +138,7 @@ class _System:
         qdd, _ = self.solve(t, y)
         return np.concatenate([y[self.n :], qdd])
 
-    def _constraint_residual(self, q, qd, t, qdd, lam) -> np.ndarray:
+    def constraint_residual(self, q, qd, t, qdd, lam) -> np.ndarray:
         """[-Phi_q^T lambda ; c - Phi_q qdd] at fixed (qdd, lambda): the non-force part of the residual."""
         mech = self.mechanism
         jac = mech.jacobian(q, t)
@@ -162,12 +162,12 @@ class _System:
         part = np.zeros((n + lam.size, 2 * n))
         if lam.size == 0:
             return part
-        base = self._constraint_residual(q, qd, t, qdd, lam)
+        base = self.constraint_residual(q, qd, t, qdd, lam)
         for k in range(n):
             step = self.DIFFERENCE_STEP * max(1.0, abs(q[k]))
             plus = q.copy()
             plus[k] += step
-            part[:, k] = (self._constraint_residual(plus, qd, t, qdd, lam) - base) / step
+            part[:, k] = (self.constraint_residual(plus, qd, t, qdd, lam) - base) / step
         for k in range(n):
             plus, minus = qd.copy(), qd.copy()
             plus[k] += 1.0
@@ -306,7 +306,7 @@ class ESDIRK32:
 
     def __init__(
         self,
-        system: _System,
+        system: OdeSystem,
         t0: float,
         y0: np.ndarray,
         t_bound: float | None,
@@ -584,7 +584,7 @@ class Stepper:
         if t_bound is None and method != "ESDIRK32":
             raise ValueError(f"method = {method!r} needs t_bound")
         self.mechanism, self.method, self.on_step = mechanism, method, on_step
-        self.system = _System(mechanism, alpha, beta)
+        self.system = OdeSystem(mechanism, alpha, beta)
         self.steps = 0
         self._moved: np.ndarray | None = None  # a state given by restart, evaluated at the next step
         y0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)])
