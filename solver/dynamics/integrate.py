@@ -91,7 +91,7 @@ class Trajectory:
     n_lu: int
     wall_time: float
     n_rejected: int = 0  # rejected step attempts (error test or Newton failure; ESDIRK32)
-    next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
+    next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next
     jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian
     #: ESDIRK32 with ``stage_values``: the sum over the accepted steps of ``h sum_j b_j v_j``, the
     #: method's own quadrature of the values v at the stages (e.g. powers: the work done over t_span)
