@@ -91,17 +91,14 @@ class Trajectory:
     n_lu: int
     wall_time: float
     n_rejected: int = 0  # rejected step attempts (error test or Newton failure; ESDIRK32)
-    next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next (to continue with first_step)
-    jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian (pass it on)
-    interpolant: object | None = (
-        None  # ESDIRK32: the last step's interpolant (pass it on: Newton's first guess)
-    )
+    next_step: float = float("nan")  # s, the step size ESDIRK32 proposes next
+    jacobian: np.ndarray | None = None  # ESDIRK32 with jacobian_reuse: the latest ODE Jacobian
     #: ESDIRK32 with ``stage_values``: the sum over the accepted steps of ``h sum_j b_j v_j``, the
     #: method's own quadrature of the values v at the stages (e.g. powers: the work done over t_span)
     stage_integral: np.ndarray | None = None
 
 
-class _System:
+class OdeSystem:
     """The ODE right-hand side and its Jacobian, with counters and a one-entry cache."""
 
     #: relative step of the forward differences of the constraint residual (sqrt of the machine epsilon)
@@ -117,6 +114,11 @@ class _System:
         self._cache_value: tuple[np.ndarray, np.ndarray] | None = None
         #: (t, y, qdd, lambda) of the latest force evaluation
         self.last_evaluation: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def forget(self) -> None:
+        """Evaluate the forces anew at the next state asked, even the cached one (a force element
+        with history may have committed a state meanwhile)."""
+        self._cache_key = self._cache_value = None
 
     def solve(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(qdd, lambda)`` at (t, y); one force evaluation unless this state was the last one."""
@@ -136,7 +138,7 @@ class _System:
         qdd, _ = self.solve(t, y)
         return np.concatenate([y[self.n :], qdd])
 
-    def _constraint_residual(self, q, qd, t, qdd, lam) -> np.ndarray:
+    def constraint_residual(self, q, qd, t, qdd, lam) -> np.ndarray:
         """[-Phi_q^T lambda ; c - Phi_q qdd] at fixed (qdd, lambda): the non-force part of the residual."""
         mech = self.mechanism
         jac = mech.jacobian(q, t)
@@ -160,12 +162,12 @@ class _System:
         part = np.zeros((n + lam.size, 2 * n))
         if lam.size == 0:
             return part
-        base = self._constraint_residual(q, qd, t, qdd, lam)
+        base = self.constraint_residual(q, qd, t, qdd, lam)
         for k in range(n):
             step = self.DIFFERENCE_STEP * max(1.0, abs(q[k]))
             plus = q.copy()
             plus[k] += step
-            part[:, k] = (self._constraint_residual(plus, qd, t, qdd, lam) - base) / step
+            part[:, k] = (self.constraint_residual(plus, qd, t, qdd, lam) - base) / step
         for k in range(n):
             plus, minus = qd.copy(), qd.copy()
             plus[k] += 1.0
@@ -241,12 +243,12 @@ class ESDIRK32:
     extrapolation for stage 3 at c = 1), which keeps it inside its (with stiffness shrinking) region
     of convergence; with these measures the step count is nearly independent of the joint stiffness.
     Far from the solution a full Newton step of a thin film may overshoot once before it contracts, so
-    divergence is declared when the increment grows twice or by ``DIVERGENCE_RATE`` at once. The cheap constraint part
-    of the Jacobian is computed once per step.
+    divergence is declared when the increment grows twice or by ``DIVERGENCE_RATE`` at once. The cheap
+    constraint part of the Jacobian is computed once per step.
 
     ``jacobian_reuse=True`` switches to simplified Newton with an adaptive Jacobian: the latest
-    Jacobian is kept (across iterations, stages, steps and, through ``Trajectory.jacobian``, calls of
-    :func:`integrate`) and refreshed as soon as an iteration contracts slower than
+    Jacobian is kept (across iterations, stages, steps and the output times of a :class:`Stepper`) and
+    refreshed as soon as an iteration contracts slower than
     ``REFRESH_RATE``; a step whose simplified Newton fails is retried with full Newton before it is
     shortened. Its Newton tolerance is ``REUSE_TOLERANCE_FACTOR`` times tighter, because
     simplified Newton stops just inside the tolerance where full Newton lands far inside it (the
@@ -261,8 +263,9 @@ class ESDIRK32:
     force evaluation. Step size: ``h_new = h min(5, max(0.2, 0.9 err^(-1/3)))``. Dense output: cubic
     Hermite between the step ends.
 
-    The interface follows scipy's OdeSolver where solver.dynamics.integrate uses it (``t``, ``y``, ``f``,
-    ``status``, ``step()``, ``dense_output()``, ``fun``, ``nlu``).
+    The interface follows scipy's OdeSolver where :class:`Stepper` uses it (``t``, ``y``, ``f``,
+    ``t_bound``, ``status``, ``step()``, ``dense_output()``, ``fun``, ``nlu``); ``t_bound`` may be None at
+    construction (the first step is then estimated when a :class:`Stepper` sets it).
 
     References: C. A. Kennedy, M. H. Carpenter, Appl. Numer. Math. 44 (2003) 139-181 (ARK3(2)4L[2]SA,
     implicit table); E. Hairer, G. Wanner, Solving ODEs II, Springer 1996, sec. IV.8.
@@ -303,18 +306,16 @@ class ESDIRK32:
 
     def __init__(
         self,
-        system: _System,
+        system: OdeSystem,
         t0: float,
         y0: np.ndarray,
-        t_bound: float,
+        t_bound: float | None,
         *,
         rtol: float,
         atol,
         max_step: float = np.inf,
         first_step: float | None = None,
         jacobian_reuse: bool = False,
-        jacobian: np.ndarray | None = None,
-        interpolant: _HermiteOutput | None = None,
         stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
     ):
         self.system = system
@@ -323,7 +324,7 @@ class ESDIRK32:
         self.stage_integral: np.ndarray | None = None  # sum over the accepted steps of h sum_j b_j v_j
         self.jacobian_reuse = jacobian_reuse
         #: the latest ODE Jacobian (kept across iterations, stages and steps when reusing)
-        self.jacobian = jacobian if jacobian_reuse else None
+        self.jacobian: np.ndarray | None = None
         self.n_rejected = 0  # step attempts rejected (error test or Newton failure)
         self.t, self.y, self.t_bound = t0, np.array(y0, dtype=float), t_bound
         self.rtol, self.atol, self.max_step = rtol, np.asarray(atol, dtype=float), max_step
@@ -331,16 +332,19 @@ class ESDIRK32:
         self.f = system.rhs(t0, self.y)
         self._anchor = system.last_evaluation
         self._anchor_value = self._values()
-        self.status = "running" if t_bound > t0 else "finished"
+        self.status = "running" if t_bound is None or t_bound > t0 else "finished"
         self.nlu = 0
-        self.h = first_step if first_step is not None else self._initial_step()
-        # the last step's interpolant; given, it continues a previous integration that ended at t0
-        self._dense: _HermiteOutput | None = interpolant
+        # the first step: given, or estimated once the bound is known (it limits the estimate)
+        self.h = first_step
+        if first_step is None and t_bound is not None:
+            self.h = self._initial_step()
+        self._dense: _HermiteOutput | None = None  # the last step's interpolant
         self._constraint_part: np.ndarray | None = None
         self._full_newton = False  # set for the retry of a step whose simplified Newton failed
 
     def fun(self, t: float, y: np.ndarray) -> np.ndarray:
-        """dy/dt at a new current state (one force evaluation; used after a projection)."""
+        """dy/dt at a new current state (one force evaluation unless the system's cache holds it; used
+        after a projection)."""
         result = self.system.rhs(t, y)
         self._anchor = self.system.last_evaluation
         self._anchor_value = self._values()
@@ -439,6 +443,8 @@ class ESDIRK32:
     def step(self) -> str | None:
         """Advance one accepted step; returns an error message on failure (status "failed")."""
         t, y, f0 = self.t, self.y, self.f
+        if self.h is None:
+            self.h = self._initial_step()
         h = min(self.h, self.max_step, self.t_bound - t)
         # the constraint part of the Jacobian, differenced once per step at the latest consistent force
         # evaluation (the last Newton iterate of the previous step, within the Newton tolerance of y)
@@ -514,24 +520,206 @@ class ESDIRK32:
         return self._dense
 
 
-def _apply_projection(
-    solver, system: _System, method: str, mechanism: Mechanism, refresh: bool = True
-) -> None:
-    """Move the solver's current state onto the constraint manifold (after an accepted step).
+def _check_method(method: str, stage_values) -> None:
+    if method not in EXPLICIT_METHODS and method not in IMPLICIT_METHODS:
+        allowed = ", ".join([*EXPLICIT_METHODS, *IMPLICIT_METHODS])
+        raise ValueError(f"method = {method!r} (allowed: {allowed})")
+    if stage_values is not None and method != "ESDIRK32":
+        raise ValueError(f"stage_values needs method = 'ESDIRK32' (got {method!r})")
 
-    ``refresh``: also update the solver's stored derivative / history for the next step (one force
-    evaluation for the one-step methods); not needed after the last step.
+
+class Stepper:
+    """Integrates a mechanism forward from a state and keeps what the method carries from step to step.
+
+    The method's state (for ESDIRK32: the proposed step size, the kept Jacobian, the last step's
+    interpolant that starts Newton) stays in this object, so a caller that stops at output times only
+    says where to go (:meth:`advance_to`) and, if it moves the state there (a projection of the
+    velocities), from where to go on (:meth:`restart`). Every method sets its step by the local error
+    estimate (module docstring); ``on_step`` and ``stage_values`` as in :func:`integrate`.
+
+    Counters (since construction): ``steps`` (accepted), ``rejected`` (ESDIRK32's rejected attempts),
+    ``force_evaluations`` (without Jacobian), ``jacobian_evaluations`` (with Jacobian), ``lu``
+    (factorisations of the Newton matrix).
+
+    Args:
+        mechanism: the mechanism.
+        t0: s, the start time.
+        q0: coordinates at t0 (used as given: project them first if needed).
+        qd0: velocities at t0.
+        method: ``"ESDIRK32"`` (default), ``"RK45"``, ``"DOP853"``, ``"Radau"`` or ``"BDF"``.
+        rtol: relative tolerance of the local error estimate.
+        atol: absolute tolerance (scalar or per state component).
+        alpha: 1/s, Baumgarte velocity feedback.
+        beta: 1/s, Baumgarte position feedback.
+        t_bound: s, the end of the integration (scipy's methods need it here; ESDIRK32 may take it
+            from the first :meth:`advance_to`, which also bounds its first step's estimate).
+        max_step: s, largest step.
+        first_step: s, the first step (default: the method's own estimate).
+        jacobian_reuse: ESDIRK32: simplified Newton with a kept Jacobian (:class:`ESDIRK32`).
+        on_step: called with the time after every accepted step (:func:`integrate`).
+        stage_values: ESDIRK32: values at its force evaluations integrated by its stage quadrature
+            (:func:`integrate`); ``stage_integral`` holds their integral since the last advance.
     """
-    n, t, y = system.n, solver.t, solver.y
-    q = project_positions(mechanism, y[:n], t)
-    qd = project_velocities(mechanism, q, y[n:], t)
-    y_new = np.concatenate([q, qd])
-    if method == "BDF":
-        # replace y_n in the backward-difference history: every difference nabla^k y_n shifts by delta
-        solver.D[: solver.order + 1] += y_new - y
-    solver.y = y_new
-    if refresh and method != "BDF":
-        solver.f = solver.fun(t, y_new)
+
+    def __init__(
+        self,
+        mechanism: Mechanism,
+        t0: float,
+        q0: np.ndarray,
+        qd0: np.ndarray,
+        *,
+        method: str = "ESDIRK32",
+        rtol: float = 1e-6,
+        atol: float | np.ndarray = 1e-9,
+        alpha: float = 0.0,
+        beta: float = 0.0,
+        t_bound: float | None = None,
+        max_step: float = np.inf,
+        first_step: float | None = None,
+        jacobian_reuse: bool = False,
+        on_step: Callable[[float], None] | None = None,
+        stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+    ):
+        _check_method(method, stage_values)
+        if t_bound is None and method != "ESDIRK32":
+            raise ValueError(f"method = {method!r} needs t_bound")
+        self.mechanism, self.method, self.on_step = mechanism, method, on_step
+        self.system = OdeSystem(mechanism, alpha, beta)
+        self.steps = 0
+        self._moved: np.ndarray | None = None  # a state given by restart, evaluated at the next step
+        y0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)])
+        if method == "ESDIRK32":
+            self._solver = ESDIRK32(
+                self.system,
+                float(t0),
+                y0,
+                t_bound,
+                rtol=rtol,
+                atol=atol,
+                max_step=max_step,
+                first_step=first_step,
+                jacobian_reuse=jacobian_reuse,
+                stage_values=stage_values,
+            )
+        else:
+            options = {"rtol": rtol, "atol": atol, "max_step": max_step}
+            if first_step is not None:
+                options["first_step"] = first_step
+            if method in IMPLICIT_METHODS:
+                options["jac"] = self.system.jacobian
+            scipy_class = EXPLICIT_METHODS.get(method) or {"Radau": Radau, "BDF": BDF}[method]
+            self._solver = scipy_class(self.system.rhs, float(t0), y0, t_bound, **options)
+
+    @property
+    def t(self) -> float:
+        """s, the time reached."""
+        return self._solver.t
+
+    @property
+    def y(self) -> np.ndarray:
+        """The state ``[q, qd]`` reached (the solver's own array: copy it to keep it)."""
+        return self._solver.y if self._moved is None else self._moved
+
+    @property
+    def running(self) -> bool:
+        """False once the bound is reached."""
+        return self._solver.status == "running"
+
+    @property
+    def rejected(self) -> int:
+        return int(getattr(self._solver, "n_rejected", 0))
+
+    @property
+    def force_evaluations(self) -> int:
+        return self.system.n_force_evaluations
+
+    @property
+    def jacobian_evaluations(self) -> int:
+        return self.system.n_jacobian_evaluations
+
+    @property
+    def lu(self) -> int:
+        return int(getattr(self._solver, "nlu", 0))
+
+    @property
+    def next_step(self) -> float:
+        """s, the step ESDIRK32 proposes next (NaN for scipy's methods)."""
+        h = getattr(self._solver, "h", None) if self.method == "ESDIRK32" else None
+        return float("nan") if h is None else float(h)
+
+    @property
+    def jacobian(self) -> np.ndarray | None:
+        """ESDIRK32: the latest ODE Jacobian (None for the other methods)."""
+        return self._solver.jacobian if self.method == "ESDIRK32" else None
+
+    @property
+    def stage_integral(self) -> np.ndarray | None:
+        """ESDIRK32 with ``stage_values``: their stage quadrature since the last :meth:`advance_to`
+        began (since construction without one); None before the first accepted step."""
+        return getattr(self._solver, "stage_integral", None)
+
+    def interpolant(self):
+        """The dense output of the last step (a callable of t)."""
+        return self._solver.dense_output()
+
+    def step(self) -> None:
+        """One accepted step towards the bound, then ``on_step``.
+
+        Raises:
+            IntegrationError: the method failed (e.g. the step size collapsed).
+        """
+        solver = self._solver
+        if self._moved is not None:
+            solver.y, self._moved = self._moved, None
+            self.system.forget()
+            solver.f = solver.fun(solver.t, solver.y)
+        message = solver.step()
+        if solver.status == "failed":
+            raise IntegrationError(f"{self.method} failed at t = {solver.t:.6g} s: {message}")
+        self.steps += 1
+        if self.on_step is not None:
+            self.on_step(solver.t)
+
+    def advance_to(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Step until exactly t (the last step ends there); returns copies of (q, qd) at t.
+
+        Raises:
+            IntegrationError: the method failed.
+        """
+        solver = self._solver
+        solver.t_bound = float(t)
+        if solver.t < solver.t_bound:
+            solver.status = "running"
+        if self.method == "ESDIRK32":
+            solver.stage_integral = None
+        while solver.status == "running":
+            self.step()
+        n = self.system.n
+        return solver.y[:n].copy(), solver.y[n:].copy()
+
+    def restart(self, q: np.ndarray, qd: np.ndarray) -> None:
+        """The state at the current time is (q, qd) from now on (e.g. the caller projected its
+        velocities): the next step starts from it, with its derivative from a new force evaluation made
+        then, and keeps the method's step size, Jacobian and interpolant."""
+        self._moved = np.concatenate([np.asarray(q, dtype=float), np.asarray(qd, dtype=float)])
+
+    def project(self, refresh: bool = True) -> None:
+        """Move the current state onto the constraint manifold (after an accepted step; Eich 1993).
+
+        ``refresh``: also update the method's stored derivative / history for the next step (one force
+        evaluation for the one-step methods); not needed after the last step.
+        """
+        solver, system, mechanism = self._solver, self.system, self.mechanism
+        n, t, y = system.n, solver.t, solver.y
+        q = project_positions(mechanism, y[:n], t)
+        qd = project_velocities(mechanism, q, y[n:], t)
+        y_new = np.concatenate([q, qd])
+        if self.method == "BDF":
+            # replace y_n in the backward-difference history: every difference nabla^k y_n shifts by delta
+            solver.D[: solver.order + 1] += y_new - y
+        solver.y = y_new
+        if refresh and self.method != "BDF":
+            solver.f = solver.fun(t, y_new)
 
 
 def integrate(
@@ -551,13 +739,11 @@ def integrate(
     first_step: float | None = None,
     assemble_initial_state: bool = True,
     jacobian_reuse: bool = False,
-    jacobian: np.ndarray | None = None,
-    interpolant: object | None = None,
     accelerations: bool = True,
     on_step: Callable[[float], None] | None = None,
     stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> Trajectory:
-    """Integrate the mechanism from (q0, qd0) over t_span with error control.
+    """Integrate the mechanism from (q0, qd0) over t_span with error control (a :class:`Stepper`).
 
     Args:
         mechanism: the mechanism.
@@ -578,12 +764,6 @@ def integrate(
         assemble_initial_state: project (q0, qd0) onto the manifold first.
         jacobian_reuse: ESDIRK32 only: simplified Newton that keeps the Jacobian while Newton
             contracts fast (:meth:`ESDIRK32._stage`); the last one is returned in the Trajectory.
-        jacobian: ESDIRK32 with jacobian_reuse: a Jacobian to start with (e.g. the previous
-            interval's ``Trajectory.jacobian``).
-        interpolant: ESDIRK32: the previous interval's ``Trajectory.interpolant`` when this call
-            continues it from its end state: the first step's Newton iteration then starts from its
-            extrapolation, as every later step does (an explicit Euler guess of a stiff joint's
-            velocity can be far off, and costs Newton and VI iterations).
         accelerations: False skips qdd and lambda at the outputs (NaN in the Trajectory): a force
             evaluation less per output for a caller that evaluates its outputs itself.
         on_step: called with the time after every accepted step, before anything else is evaluated
@@ -604,11 +784,7 @@ def integrate(
     Raises:
         IntegrationError: the solver failed (e.g. the step size fell below scipy's minimum).
     """
-    if method not in EXPLICIT_METHODS and method not in IMPLICIT_METHODS:
-        allowed = ", ".join([*EXPLICIT_METHODS, *IMPLICIT_METHODS])
-        raise ValueError(f"method = {method!r} (allowed: {allowed})")
-    if stage_values is not None and method != "ESDIRK32":
-        raise ValueError(f"stage_values needs method = 'ESDIRK32' (got {method!r})")
+    _check_method(method, stage_values)
     start = time.perf_counter()
     t0, t_end = float(t_span[0]), float(t_span[1])
     q0 = np.asarray(q0, dtype=float)
@@ -616,32 +792,24 @@ def integrate(
     if assemble_initial_state:
         q0 = project_positions(mechanism, q0, t0)
         qd0 = project_velocities(mechanism, q0, qd0, t0)
-    system = _System(mechanism, alpha, beta)
-    y0 = np.concatenate([q0, qd0])
-    if method == "ESDIRK32":
-        solver = ESDIRK32(
-            system,
-            t0,
-            y0,
-            t_end,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            first_step=first_step,
-            jacobian_reuse=jacobian_reuse,
-            jacobian=jacobian,
-            interpolant=interpolant,
-            stage_values=stage_values,
-        )
-    else:
-        options = {"rtol": rtol, "atol": atol, "max_step": max_step}
-        if first_step is not None:
-            options["first_step"] = first_step
-        if method in IMPLICIT_METHODS:
-            options["jac"] = system.jacobian
-        scipy_class = EXPLICIT_METHODS.get(method) or {"Radau": Radau, "BDF": BDF}[method]
-        solver = scipy_class(system.rhs, t0, y0, t_end, **options)
-
+    stepper = Stepper(
+        mechanism,
+        t0,
+        q0,
+        qd0,
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        alpha=alpha,
+        beta=beta,
+        t_bound=t_end,
+        max_step=max_step,
+        first_step=first_step,
+        jacobian_reuse=jacobian_reuse,
+        on_step=on_step,
+        stage_values=stage_values,
+    )
+    system = stepper.system
     n = mechanism.n_coordinates
     records: list[tuple] = []
     output_evaluations = [0]
@@ -665,29 +833,23 @@ def integrate(
         if pending.size == 0 or np.any(np.diff(pending) < 0) or pending[0] < t0 or pending[-1] > t_end:
             raise ValueError("t_eval must be non-empty, sorted and inside t_span")
         for t_k in pending[pending <= t0]:
-            record(float(t_k), solver.y)
+            record(float(t_k), stepper.y)
         pending = pending[pending > t0]
     else:
-        record(t0, solver.y)
+        record(t0, stepper.y)
 
-    n_steps = 0
-    while solver.status == "running":
-        message = solver.step()
-        if solver.status == "failed":
-            raise IntegrationError(f"{method} failed at t = {solver.t:.6g} s: {message}")
-        n_steps += 1
-        if on_step is not None:
-            on_step(solver.t)
-        if pending is not None and pending.size and pending[0] <= solver.t:
-            dense = solver.dense_output()
-            inside = pending <= solver.t
+    while stepper.running:
+        stepper.step()
+        if pending is not None and pending.size and pending[0] <= stepper.t:
+            dense = stepper.interpolant()
+            inside = pending <= stepper.t
             for t_k in pending[inside]:
-                record(float(t_k), solver.y if t_k == solver.t else dense(t_k))
+                record(float(t_k), stepper.y if t_k == stepper.t else dense(t_k))
             pending = pending[~inside]
         if projection:
-            _apply_projection(solver, system, method, mechanism, refresh=solver.status == "running")
+            stepper.project(refresh=stepper.running)
         if pending is None:
-            record(solver.t, solver.y)
+            record(stepper.t, stepper.y)
 
     t_out = np.array([r[0] for r in records])
     y_out = np.array([r[1] for r in records])
@@ -700,15 +862,14 @@ def integrate(
         position_violation=np.array([r[4] for r in records]),
         velocity_violation=np.array([r[5] for r in records]),
         method=method,
-        n_steps=n_steps,
+        n_steps=stepper.steps,
         n_force_evaluations=system.n_force_evaluations - output_evaluations[0],
         n_jacobian_evaluations=system.n_jacobian_evaluations,
         n_output_evaluations=output_evaluations[0],
-        n_lu=int(getattr(solver, "nlu", 0)),
+        n_lu=stepper.lu,
         wall_time=time.perf_counter() - start,
-        n_rejected=int(getattr(solver, "n_rejected", 0)),
-        next_step=float(getattr(solver, "h", float("nan"))) if method == "ESDIRK32" else float("nan"),
-        jacobian=getattr(solver, "jacobian", None) if method == "ESDIRK32" else None,
-        interpolant=solver.dense_output() if method == "ESDIRK32" else None,
-        stage_integral=getattr(solver, "stage_integral", None),
+        n_rejected=stepper.rejected,
+        next_step=stepper.next_step,
+        jacobian=stepper.jacobian,
+        stage_integral=stepper.stage_integral,
     )

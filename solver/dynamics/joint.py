@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
 import numpy as np
 
@@ -136,6 +137,41 @@ class FilmJoint(ClearanceJoint):
         self.last_result = r
         return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, jac)
 
+    #: the variables of solver.study.results.VARIABLES this joint reports at a state (``outputs``)
+    OUTPUTS: ClassVar[tuple[str, ...]] = (
+        "p_max",
+        "F_hydro",
+        "F_asperity",
+        "contact_area_ratio",
+        "h_min",
+        "deformation_max",
+        "deformation_max_angle",
+        "side_flow",
+        "supply_flow",
+        "cavitated_area_ratio",
+        "oil_volume",
+    )
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
+        """The film's variables (``OUTPUTS``) at a state whose ``forces`` were just evaluated (its
+        result from the cache); {} where the film cannot be solved there."""
+        result = self.result_at(ecc, ecc_rate, omega_rel, t)
+        if result is None:
+            return {}
+        return {
+            "p_max": result.p_max,
+            "F_hydro": result.hydro_load,
+            "F_asperity": result.asperity_load,
+            "contact_area_ratio": result.contact_area_ratio,
+            "h_min": result.h_min,
+            "deformation_max": result.max_deformation,
+            "deformation_max_angle": result.max_deformation_theta,
+            "side_flow": result.side_flow,
+            "supply_flow": result.supply_flow,
+            "cavitated_area_ratio": result.cavitated_area_ratio,
+            "oil_volume": result.oil_volume,
+        }
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class ShortBearingJoint(ClearanceJoint):
@@ -202,6 +238,18 @@ class ShortBearingJoint(ClearanceJoint):
             return math.nan
         g = self._wedge_and_squeeze(ex, ey, rx, ry, omega_rel)[4]
         return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
+
+    #: the variables of solver.study.results.VARIABLES this joint reports at a state (``outputs``)
+    OUTPUTS: ClassVar[tuple[str, ...]] = ("F_hydro", "F_asperity", "side_flow")
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
+        """The film load (all of the force: no asperity contact) and the side flow at a state whose
+        ``forces`` were just evaluated."""
+        return {
+            "F_hydro": float(np.hypot(*np.asarray(forces.force))),
+            "F_asperity": 0.0,
+            "side_flow": self.side_flow(ecc, ecc_rate, omega_rel),
+        }
 
 
 def hertz_line_stiffness(
@@ -277,6 +325,13 @@ class DryContactJoint(ClearanceJoint):
         out = self._outputs(z)
         jac = _complex_step_jacobian(self._outputs, z) if jacobian else None
         return JointForces(np.real(out[:2]).copy(), float(np.real(out[2])), float(np.real(out[3])), jac)
+
+    #: the variables of solver.study.results.VARIABLES this joint reports at a state (``outputs``)
+    OUTPUTS: ClassVar[tuple[str, ...]] = ("F_hydro", "F_asperity")
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
+        """The contact load (all of the force: no film) at a state whose ``forces`` were just evaluated."""
+        return {"F_hydro": 0.0, "F_asperity": float(np.hypot(*np.asarray(forces.force)))}
 
 
 def surface_from_case(surf) -> Surface:

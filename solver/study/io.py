@@ -8,7 +8,9 @@ communicator from the mesh; only rank 0 writes plots.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
+import logging
 import math
 import os
 import shutil
@@ -27,6 +29,8 @@ with warnings.catch_warnings():
     # grew), and nothing a user can act on. Imported here, once, so that xarray finds it loaded.
     warnings.filterwarnings("ignore", "numpy.ndarray size changed", RuntimeWarning)
     import netCDF4  # noqa: F401
+
+log = logging.getLogger(__name__)
 
 
 def subplots(*args, figsize, constrained_layout: bool = False, **kwargs):
@@ -210,7 +214,16 @@ def write_json(path: Path, data: dict) -> None:
         part.write_text(json.dumps(data, indent=2) + "\n")
 
 
-__all__ = ["atomic_path", "write_film_fields", "plot_pressure_map", "gather_pressure", "write_json"]
+__all__ = [
+    "atomic_path",
+    "write_film_fields",
+    "plot_pressure_map",
+    "gather_pressure",
+    "write_json",
+    "Checkpoint",
+    "write_checkpoint",
+    "read_checkpoint",
+]
 
 
 def write_netcdf(ds, path: Path) -> None:
@@ -273,3 +286,87 @@ def plot_stribeck(ds, path: Path) -> None:
     ax.legend()
     with atomic_path(Path(path)) as part:
         fig.savefig(part, dpi=120, format="png")
+
+
+@dataclasses.dataclass(frozen=True)
+class Checkpoint:
+    """A run's state at a cycle end (``results/checkpoint.npz``): what a resumed run goes on from.
+
+    Attributes:
+        fingerprint: the case settings, joint and solver version it belongs to.
+        cycles: cycles done.
+        t: s, the time at the cycle end.
+        q: coordinates there.
+        qd: velocities there (the consistent ones the next cycle starts from).
+        h_min_history: m, the min h_min of each cycle done (the periodic test's).
+        friction_history: W, the mean friction power of each cycle done (the periodic test's).
+        timings: the TIMING of each cycle done (solver.study.results.TIMING).
+        thermal: the thermal iteration's state (solver.study.thermal.EffectiveTemperature.state);
+            None when isothermal.
+        film: the film's committed history states, (time, state) in the order they were committed
+            (the film's ``committed_history``; [] for a film without history).
+    """
+
+    fingerprint: str
+    cycles: int
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    h_min_history: list[float]
+    friction_history: list[float]
+    timings: list[dict[str, float]]
+    thermal: list[dict] | None = None
+    film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
+
+
+def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
+    """Write a checkpoint (atomic)."""
+    film = checkpoint.film or []
+    film_times = np.array([time for time, _ in film], dtype=float)
+    film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
+    with atomic_path(path) as part:
+        with open(part, "wb") as stream:
+            np.savez(
+                stream,
+                fingerprint=checkpoint.fingerprint,
+                cycles=checkpoint.cycles,
+                t=checkpoint.t,
+                q=checkpoint.q,
+                qd=checkpoint.qd,
+                history=np.asarray(checkpoint.h_min_history),
+                timings=json.dumps(list(checkpoint.timings)),
+                thermal=json.dumps(checkpoint.thermal),
+                film_times=film_times,
+                film_states=film_states,
+                friction=np.asarray(checkpoint.friction_history, dtype=float),
+            )
+
+
+def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
+    """The checkpoint at ``path`` if it belongs to the same case (``fingerprint``), else None."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path) as data:
+            if str(data["fingerprint"]) != fingerprint:
+                log.info("checkpoint %s belongs to other case settings: starting afresh", path)
+                return None
+            return Checkpoint(
+                fingerprint=fingerprint,
+                cycles=int(data["cycles"]),
+                t=float(data["t"]),
+                q=data["q"].copy(),
+                qd=data["qd"].copy(),
+                h_min_history=list(data["history"]),
+                friction_history=list(data["friction"]) if "friction" in data else [],
+                timings=json.loads(str(data["timings"])) if "timings" in data else [],
+                thermal=json.loads(str(data["thermal"])) if "thermal" in data else None,
+                film=(
+                    list(zip(data["film_times"].tolist(), data["film_states"].copy()))
+                    if "film_times" in data
+                    else []
+                ),
+            )
+    except (OSError, KeyError, ValueError) as err:
+        log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
+        return None

@@ -1,4 +1,4 @@
-"""Results of a coupled run: the netCDF data contract (DESIGN 4), PNG plots, log and checkpoints.
+"""Results of a coupled run: the netCDF data contract (DESIGN 4), PNG plots and the log.
 
 ``results.nc`` has the dimension ``crank_angle`` (deg, 0-720, the last computed cycle) and the
 DESIGN 4 variables (names are an interface: add, do not rename), each with ``units`` and
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import json
 import logging
 import math
 from pathlib import Path
@@ -101,6 +100,12 @@ VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
+#: The variables build_dataset derives from the others (and the ideal cycle) rather than from each state
+DERIVED_VARIABLES = ("ideal_pin_force_x", "ideal_pin_force_y", "eps", "h_min_over_sigma")
+#: The variables of each output state (solver.study.outputs); NaN where a state has no value for one
+#: (the film variables of an ideal joint, a joint that does not report it, a film that failed to solve)
+STATE_VARIABLES = tuple(name for name in VARIABLES if name not in DERIVED_VARIABLES)
+
 #: Scalars of the last cycle: name -> (units, long_name). Film temperature and viscosity are the case's with
 #: oil.thermal = "isothermal" (temperature NaN when the case gives viscosity_Pa_s), the effective ones
 #: with "effective"; the heat balance terms other than heat_generated are NaN when isothermal.
@@ -122,8 +127,9 @@ FILM_VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
-#: Where the time of a cycle goes: name -> meaning (names ending in _s are seconds, the others counts). Logged per cycle and stored in the results'
-#: attributes as ``timing.<name>`` (one value per computed cycle, the first cycle first).
+#: Where the time of a cycle goes: name -> meaning (names ending in _s are seconds, the others counts).
+#: Logged per cycle and stored in the results' attributes as ``timing.<name>`` (one value per computed
+#: cycle, the first cycle first).
 TIMING: dict[str, str] = {
     "wall_s": "wall time of the cycle (integration, outputs and checkpoint)",
     "film_solves": "film solves (each an SNES VI solve, its assembly and functionals)",
@@ -131,8 +137,8 @@ TIMING: dict[str, str] = {
     "film_jacobians": "film Jacobians (sensitivities with the converged active set)",
     "steps": "accepted integrator steps",
     "rejected_steps": "rejected integrator step attempts (error test or Newton failure)",
-    "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to upwinding "
-    "(its limited solve did not converge)",
+    "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to "
+    "upwinding (its limited solve did not converge)",
     "film_solve_s": "seconds in film solves",
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",
@@ -178,79 +184,6 @@ def detach_log(handler: logging.Handler | None) -> None:
     if handler is not None:
         logging.getLogger("solver").removeHandler(handler)
         handler.close()
-
-
-def write_checkpoint(
-    path: Path,
-    fingerprint: str,
-    cycles: int,
-    t: float,
-    q,
-    qd,
-    history,
-    timings=(),
-    *,
-    thermal: list[dict] | None = None,
-    film: list[tuple[float, np.ndarray]] | None = None,
-    friction=(),
-) -> None:
-    """State at a cycle end, with the h_min history, the cycles' timing, the thermal iteration's
-    state (solver.study.thermal.EffectiveTemperature.state; None: isothermal), an elastic bushing's
-    committed film states (solver.film.bearing.FilmModel.committed_history; None: rigid) and the
-    cycles' mean friction power (atomic)."""
-    film = film or []
-    film_times = np.array([time for time, _ in film], dtype=float)
-    film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
-    with io.atomic_path(path) as part:
-        with open(part, "wb") as stream:
-            np.savez(
-                stream,
-                fingerprint=fingerprint,
-                cycles=cycles,
-                t=t,
-                q=q,
-                qd=qd,
-                history=np.asarray(history),
-                timings=json.dumps(list(timings)),
-                thermal=json.dumps(thermal),
-                film_times=film_times,
-                film_states=film_states,
-                friction=np.asarray(friction, dtype=float),
-            )
-
-
-def read_checkpoint(path: Path, fingerprint: str):
-    """(cycles done, t, q, qd, h_min history, timings, thermal state or None, committed film states,
-    friction history) from a checkpoint of the same case, else None."""
-    if not path.is_file():
-        return None
-    try:
-        with np.load(path) as data:
-            if str(data["fingerprint"]) != fingerprint:
-                log.info("checkpoint %s belongs to other case settings: starting afresh", path)
-                return None
-            timings = json.loads(str(data["timings"])) if "timings" in data else []
-            thermal = json.loads(str(data["thermal"])) if "thermal" in data else None
-            film = (
-                list(zip(data["film_times"].tolist(), data["film_states"].copy()))
-                if "film_times" in data
-                else []
-            )
-            friction = list(data["friction"]) if "friction" in data else []
-            return (
-                int(data["cycles"]),
-                float(data["t"]),
-                data["q"].copy(),
-                data["qd"].copy(),
-                list(data["history"]),
-                timings,
-                thermal,
-                film,
-                friction,
-            )
-    except (OSError, KeyError, ValueError) as err:
-        log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)
-        return None
 
 
 def build_dataset(
@@ -306,7 +239,7 @@ def write_results(
         "F_asperity_max": nan_reduce(np.nanmax, cols["F_asperity"]),
         "friction_power_mean": cycle.friction_power_mean,
     }
-    film = run.film_record(cycle)
+    film = run.oil.record(cols)
     attrs = {**case_attributes(case)}
     attrs.update(
         {
@@ -343,9 +276,10 @@ def write_results(
             "title": f"engine small-end tribo-dynamics: {case.name}",
         }
     )
-    if run.thermal is not None:
-        attrs["thermal.temperatures_C"] = np.array([b.temperature for b in run.thermal.history], dtype=float)
-        attrs["thermal.closures"] = np.array([b.closure for b in run.thermal.history], dtype=float)
+    thermal = run.oil.thermal
+    if thermal is not None:
+        attrs["thermal.temperatures_C"] = np.array([b.temperature for b in thermal.history], dtype=float)
+        attrs["thermal.closures"] = np.array([b.closure for b in thermal.history], dtype=float)
         attrs["thermal.description"] = (
             "film temperature and heat balance closure of every computed cycle, "
             "the first cycle first (solver.study.thermal)"

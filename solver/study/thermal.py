@@ -8,7 +8,7 @@ journal-bearing design, Raimondi & Boyd 1958), at which the oil's viscosity and 
     (1 - s) P_diss(T)  =  rho(T) c_p Q_side(T) (T - T_supply)
 
 - ``P_diss`` [W]: the power dissipated in the joint (friction + squeeze, the ``dissipated_power``
-  output of solver.study.simulation);
+  output of solver.study.outputs);
 - ``s``: the share of it conducted away through the pin and the rod rather than carried by the oil
   (``oil.heat_to_solids``). It is an assumption, not computed: 0.2 by default (Raimondi and Boyd's
   adiabatic bearing is s = 0);
@@ -36,7 +36,7 @@ change. ``P_diss`` and ``Q_side`` come from whole cycles, so the iteration runs 
    D341's plain Walther form, or 250 C); if the balance still has R > 0 there, the run fails.
 
 Once a cycle's closure is within the tolerance the temperature is kept, so that the mechanics settle
-at it (solver.study.simulation stops when both the closure and the cycle-to-cycle change of h_min are
+at it (solver.study.cycles stops when both the closure and the cycle-to-cycle change of h_min are
 within their tolerances). Numpy only: no files, no MPI.
 """
 

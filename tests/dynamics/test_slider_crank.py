@@ -3,8 +3,8 @@
 The reference is written here from scratch, by hand: offset slider-crank kinematics (piston pin at
 height a, crank angle theta, crank speed omega and acceleration epsilon) and Newton-Euler for the
 piston (x), the rod (force and moment about its centre of mass) and the crank (moment about its
-axis). Nothing is shared with solver.dynamics.engine except the inputs: geometry, masses, gas force F_gas(theta)
-and the crank motion.
+axis). Nothing is shared with solver.dynamics.engine except the inputs: geometry, masses, gas force
+F_gas(theta) and the crank motion.
 """
 
 from __future__ import annotations
@@ -281,7 +281,7 @@ def test_clearance_joint_small_end_deflects_by_the_ideal_pin_force_over_k(tmp_pa
 
 
 def test_constraint_part_of_the_ode_jacobian_matches_richardson_differences(tmp_path):
-    """The constraint part of the implicit integrators' Jacobian (integrate._System.constraint_derivative:
+    """The constraint part of the implicit integrators' Jacobian (integrate.OdeSystem.constraint_derivative:
     forward differences of the constraint residual in q, exact in qd) against central differences with
     a range of steps extrapolated (Richardson: error O(h^4)), on the engine with a clearance small end
     at 60 deg after firing (the largest multipliers), with Baumgarte terms. Bound 1e-6 of the largest
@@ -289,14 +289,14 @@ def test_constraint_part_of_the_ode_jacobian_matches_richardson_differences(tmp_
     the formulae (a wrong sign, a missing term, central differences of gamma in qd that are not exact)
     is of order 1."""
     from solver.dynamics.engine import build_mechanism
-    from solver.dynamics.integrate import _System
+    from solver.dynamics.integrate import OdeSystem
     from solver.dynamics.multibody import LinearClearanceJoint
 
     engine = engine_from_case(make_case(tmp_path))
     coupled = build_mechanism(engine, LinearClearanceJoint(1e9, 4e3))
     t, q, qd = coupled.initial_state(math.radians(420.0))
     omega = engine.crank_motion.speed
-    system = _System(coupled.mechanism, omega, omega)
+    system = OdeSystem(coupled.mechanism, omega, omega)
     rng = np.random.default_rng(1)
     qd = qd + 1e-3 * rng.standard_normal(qd.size)  # off the manifold: the Baumgarte terms are not zero
     y = np.concatenate([q, qd])
@@ -308,7 +308,7 @@ def test_constraint_part_of_the_ode_jacobian_matches_richardson_differences(tmp_
         plus, minus = y.copy(), y.copy()
         plus[k] += step
         minus[k] -= step
-        residual = [system._constraint_residual(z[:n], z[n:], t, qdd, lam) for z in (plus, minus)]
+        residual = [system.constraint_residual(z[:n], z[n:], t, qdd, lam) for z in (plus, minus)]
         return (residual[0] - residual[1]) / (2 * step)
 
     reference = np.column_stack([(4 * central(k, 1e-5) - central(k, 2e-5)) / 3 for k in range(2 * n)])

@@ -1,4 +1,5 @@
-"""Batch runs (solver.study.batch, solver.study.summary, slurm/): results, summary, failures, resume, ranks, Slurm.
+"""Batch runs (solver.study.batch, solver.study.summary, slurm/): results, summary, failures, resume, ranks,
+Slurm.
 
 The ``mpi`` tests run on one rank and under ``mpirun -n 2`` (scripts/test.sh). They use short coarse
 cases: the ideal joint (about 0.1 s per case) and the analytic short-bearing joint with one 720 deg
@@ -308,7 +309,8 @@ def test_dynamic_schedule_balances_uneven_cases(comm, tempdir, schedule):
 
 @pytest.mark.mpi
 def test_one_and_two_ranks_give_identical_numbers(comm, tempdir):
-    """The same short-bearing cases on one rank, on two ranks (one case each), on a two-rank group (one case)."""
+    """The same short-bearing cases on one rank, on two ranks (one case each), on a two-rank group (one
+    case)."""
     import xarray as xr
 
     if comm.size < 2:

@@ -72,6 +72,7 @@ def short_bearing_run(tmp_path_factory):
         yield summary, ds.load()
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_joint_carries_the_ideal_load(short_bearing_run):
     """|F_pin - F_pin,ideal| <= 2 % of the peak ideal pin force at every output angle except short
@@ -84,6 +85,7 @@ def test_joint_carries_the_ideal_load(short_bearing_run):
     assert float((error > 0.02 * peak).mean()) <= 0.02
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_energy_balance_over_a_periodic_cycle(short_bearing_run):
     """Crank work + gas work - change of mechanical energy = energy dissipated in the joint (friction
@@ -104,6 +106,7 @@ def test_energy_balance_over_a_periodic_cycle(short_bearing_run):
     assert work_in - energy_change == pytest.approx(dissipated, rel=0.01)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_energy_audit_closes_the_balance_of_the_cycle(short_bearing_run):
     """The results' audit: input_work (crank driver from its generalized momentum, gas) - change of
@@ -127,6 +130,7 @@ def test_energy_audit_closes_the_balance_of_the_cycle(short_bearing_run):
     assert dissipated == pytest.approx(simpson(ds.dissipated_power.values, x=t), rel=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_results_follow_the_data_contract(short_bearing_run):
     """Every DESIGN 4 name with units and long_name, crank_angle 0-720, the case parameters as
@@ -144,6 +148,7 @@ def test_results_follow_the_data_contract(short_bearing_run):
         assert (summary.results.parent / png).stat().st_size > 10_000
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_interrupted_run_resumes_and_gives_the_same_numbers(tmp_path, monkeypatch):
     """A run stopped after its first cycle resumes from the checkpoint and ends with the same numbers
@@ -161,6 +166,7 @@ def test_interrupted_run_resumes_and_gives_the_same_numbers(tmp_path, monkeypatc
     assert not (case / "results" / "checkpoint.npz").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
     """With solver.periodic_friction_tolerance a run is periodic only when the cycle-mean friction power
@@ -198,13 +204,15 @@ def test_friction_tolerance_holds_the_run_until_the_friction_settles(tmp_path):
 def test_failure_names_the_crank_angle(tmp_path, monkeypatch):
     """A joint whose every evaluation fails after 100 deg stops the run with an error naming the
     crank angle, and no results file is written."""
-    from solver.dynamics.joint import _NAN_FORCES, ShortBearingJoint
+    from solver.dynamics.joint import ShortBearingJoint
+    from solver.dynamics.multibody import JointForces
 
     original = ShortBearingJoint.forces
+    nan_forces = JointForces(np.full(2, np.nan), math.nan, math.nan, np.full((4, 5), np.nan))
 
     def failing(self, ecc, ecc_rate, omega_rel, t, jacobian=False):
         return (
-            _NAN_FORCES
+            nan_forces
             if t > math.radians(100) / (2000 * math.pi / 30)
             else original(self, ecc, ecc_rate, omega_rel, t, jacobian)
         )
@@ -267,6 +275,7 @@ def coarse_run(tmp_path_factory):
     return case, proc
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_coarse_mixed_fem_run_of_the_reference_case(coarse_run):
     """Results with film and asperity quantities, ParaView fields at the requested angles, and the
@@ -289,6 +298,7 @@ def test_coarse_mixed_fem_run_of_the_reference_case(coarse_run):
         assert (case / "results" / f"film_{angle}deg.h5").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_terminal_shows_only_what_matters(coarse_run):
     """With the forms compiled in this run: one line announces it, no C compiler command line, no
@@ -305,6 +315,7 @@ def test_the_terminal_shows_only_what_matters(coarse_run):
     assert any("finished in" in line for line in lines)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_run_records_where_the_time_goes(coarse_run):
     """timing.* attributes and run.log, per cycle. The parts add up to the cycle's wall time (1e-9 s:
@@ -330,6 +341,7 @@ def test_the_run_records_where_the_time_goes(coarse_run):
     assert f"{t['steps'][0]:.0f} steps ({t['rejected_steps'][0]:.0f} rejected)" in line
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_paraview_plays_the_cycle(coarse_run):
     """ParaView's own XDMF reader (pvbatch, headless) opens film_series.xdmf as one grid with all the

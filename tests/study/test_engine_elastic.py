@@ -50,7 +50,7 @@ def winkler_run(tmp_path_factory):
     # FilmModel.start_from is called once per snapshot by write_fields (and by the run where an elastic
     # solve fails from its warm start and is taken again from the committed state: not counted)
     starts, in_fields = [], [False]
-    start_from, solve, write_fields = FilmModel.start_from, FilmModel.solve, simulation._Run.write_fields
+    start_from, solve, write_fields = FilmModel.start_from, FilmModel.solve, simulation.Run.write_fields
 
     def counting(self, state):
         if in_fields[0]:
@@ -72,7 +72,7 @@ def winkler_run(tmp_path_factory):
     patch = pytest.MonkeyPatch()
     patch.setattr(io, "write_film_fields", recording)
     patch.setattr(FilmModel, "start_from", counting)
-    patch.setattr(simulation._Run, "write_fields", writing)
+    patch.setattr(simulation.Run, "write_fields", writing)
     patch.setattr(FilmModel, "solve", failing_second_snapshot)
     try:
         summary = run_case(case, MPI.COMM_SELF)
@@ -82,6 +82,7 @@ def winkler_run(tmp_path_factory):
         yield ds.load(), snapshots, case
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_elastic_small_end_runs_the_firing_cycle_and_carries_the_load(winkler_run):
     """The whole cycle (the run used to stop after firing TDC), the bushing deforming by micrometres
@@ -96,6 +97,7 @@ def test_the_elastic_small_end_runs_the_firing_cycle_and_carries_the_load(winkle
     assert float((error < 0.05 * peak).mean()) >= 0.9
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_energy_audit_closes_on_the_elastic_cycle(winkler_run):
     """The elastic engine cycle's energy balance (issue target 1 %): the results' audit within 1 % of the
@@ -108,6 +110,7 @@ def test_the_energy_audit_closes_on_the_elastic_cycle(winkler_run):
     assert abs(audit) < 0.01, audit
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_bushing_follows_the_winkler_law_where_there_is_no_contact(winkler_run):
     """Without asperity contact the bushing's deformation is ``k p`` node by node, so its largest value
@@ -120,6 +123,7 @@ def test_the_bushing_follows_the_winkler_law_where_there_is_no_contact(winkler_r
     np.testing.assert_allclose(ds.deformation_max.values[free], k * ds.p_max.values[free], rtol=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_fields_show_the_runs_deformation(winkler_run):
     """The snapshot at 380 deg solves the film again from the committed state the run's output there
@@ -130,6 +134,7 @@ def test_the_fields_show_the_runs_deformation(winkler_run):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_a_snapshot_that_cannot_be_solved_is_left_out_with_a_warning(winkler_run):
     """The results do not depend on the fields: a snapshot whose film solve fails is left out, the
@@ -151,7 +156,7 @@ def test_the_checkpoint_keeps_the_deformation_history(tmp_path):
     original model (1e-8 relative, the VI tolerance), where a model without it differs by more than 1 %."""
     from solver.film.bearing import Bearing, FilmModel, Kinematics
     from solver.film.ehd import WinklerLayer
-    from solver.study.results import read_checkpoint, write_checkpoint
+    from solver.study.io import Checkpoint, read_checkpoint, write_checkpoint
 
     R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
@@ -167,10 +172,21 @@ def test_the_checkpoint_keeps_the_deformation_history(tmp_path):
         original.solve(kin(0.9), 1e-5)
         original.commit_history(original.history_state(), 1e-5)
         path = tmp_path / "checkpoint.npz"
-        write_checkpoint(
-            path, "case", 1, 1e-5, np.zeros(9), np.zeros(9), [1e-6], film=original.committed_history()
+        checkpoint = Checkpoint(
+            fingerprint="case",
+            cycles=1,
+            t=1e-5,
+            q=np.zeros(9),
+            qd=np.zeros(9),
+            h_min_history=[1e-6],
+            friction_history=[0.5],
+            timings=[],
+            film=original.committed_history(),
         )
-        for time_s, state in read_checkpoint(path, "case")[7]:
+        write_checkpoint(path, checkpoint)
+        read = read_checkpoint(path, "case")
+        assert (read.cycles, read.t, read.h_min_history, read.friction_history) == (1, 1e-5, [1e-6], [0.5])
+        for time_s, state in read.film:
             resumed.commit_history(state, time_s)
         expected = original.solve(kin(0.95), 2e-5).load
         assert resumed.solve(kin(0.95), 2e-5).load == pytest.approx(expected, rel=1e-8)

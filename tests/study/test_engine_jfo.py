@@ -22,7 +22,10 @@ from tests.conftest import energy_balance, interrupt_and_resume, run_cli
 from tests.study.test_engine_coupled import make_case
 
 JFO = '[oil]\ncavitation = "jfo"\ncavitation_pressure_bar = -0.9\n'
-SOLVER = "max_cycles = 2\nstep_deg = 2\nmesh_size = 0.2\nperiodic_tolerance = 1e-9\nfield_step_deg = 0\nfield_angles_deg = [380]\n"
+SOLVER = (
+    "max_cycles = 2\nstep_deg = 2\nmesh_size = 0.2\nperiodic_tolerance = 1e-9\nfield_step_deg = 0\n"
+    "field_angles_deg = [380]\n"
+)
 
 
 def _jfo_case(directory):
@@ -60,6 +63,7 @@ def jfo_run(tmp_path_factory):
         yield summary, ds.load(), case, snapshots
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_film_keeps_its_oil_over_the_cycle(jfo_run):
     """Oil balance of the last cycle from results.nc: the integral of (supply - side flow) plus the
@@ -77,6 +81,7 @@ def test_the_film_keeps_its_oil_over_the_cycle(jfo_run):
     assert 0.05 < cavitated.min() and cavitated.max() < 0.95
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_results_count_the_steps_that_fell_back_to_upwinding(jfo_run):
     """timing.transport_fallbacks: one whole count per computed cycle (the limited transport is the
@@ -92,6 +97,7 @@ def test_the_results_count_the_steps_that_fell_back_to_upwinding(jfo_run):
         assert (f"; {count:.0f} steps fell back to the upwind transport" in line) == (count > 0)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_energy_audit_closes_on_the_coarse_jfo_cycle(jfo_run):
     """The results' energy audit of the last cycle within 1 % of the dissipated energy (the issue's
@@ -106,6 +112,7 @@ def test_the_energy_audit_closes_on_the_coarse_jfo_cycle(jfo_run):
     assert abs(outputs) > 0.05, outputs
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_paraview_snapshot_carries_the_film_fraction(jfo_run):
     """The snapshot at 380 deg holds the film fraction beside the pressure, with values in [0, 1] and a
@@ -119,6 +126,7 @@ def test_the_paraview_snapshot_carries_the_film_fraction(jfo_run):
     assert np.allclose(pressure[theta < 1.0], -0.9e5, rtol=0, atol=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, monkeypatch):
     """Stopped after the first cycle and resumed from the checkpoint, the run ends with the same numbers
@@ -158,6 +166,7 @@ def test_jfo_refuses_a_case_in_one_line(tmp_path, old, new, message):
     assert "Traceback" not in result.stderr and not (case / "results" / "results.nc").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_the_elastic_jfo_small_end_runs_the_firing_cycle(tmp_path):
     """One coarse cycle (0.15 R, 5 deg outputs) with a Winkler bushing and the JFO film: the whole cycle,

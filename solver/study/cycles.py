@@ -1,0 +1,353 @@
+"""The cycle loop of a coupled run: whole 720 deg cycles until periodic, checkpointed at every cycle end.
+
+A cycle is integrated by one :class:`solver.dynamics.integrate.Stepper` (ESDIRK32 with a kept Jacobian,
+Baumgarte's gains at the crank speed) from output angle to output angle: every output angle is a step
+end (the cubic dense output is fine for positions but not for the relative velocity of a stiff joint,
+and the film force depends on that velocity). At each output the state's variables are evaluated at
+consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
+stage integrals accumulate (solver.study.energy); a film with history commits its state.
+
+The run stops when the cycle minimum of the film thickness changes by less than
+``solver.periodic_tolerance`` x clearance from one cycle to the next (at least two cycles, at most
+``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is set, the cycle-mean friction
+power by less than that fraction of itself; with oil.thermal = "effective" also when the cycle's heat
+balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
+solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the
+film's committed history, so an interrupted run resumes from the last finished cycle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import sys
+import time
+from contextlib import contextmanager, nullcontext
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from solver.dynamics.integrate import IntegrationError, Stepper
+from solver.study import io
+from solver.study.energy import STAGE_COLUMNS, EnergyAudit, input_work
+from solver.study.film_temperature import set_film_temperature
+from solver.study.outputs import StateOutputs
+from solver.study.results import TIMING
+from solver.study.thermal import ThermalError, cycle_mean
+
+log = logging.getLogger(__name__)
+
+CHUNK_DEG = 10.0  # crank angle between progress updates
+
+
+class SimulationError(RuntimeError):
+    """The coupled run failed (the message names the crank angle and cycle)."""
+
+
+@dataclasses.dataclass
+class CycleOutput:
+    """Arrays over the output crank angles of one cycle (SI)."""
+
+    columns: dict[str, np.ndarray]
+    h_min_min: float
+    timing: dict[str, float] = dataclasses.field(default_factory=dict)  # see TIMING
+
+    @property
+    def friction_power_mean(self) -> float:
+        """W, the cycle mean of the friction power over the crank angle (as results.nc's summary)."""
+        return cycle_mean(self.columns["friction_power"], self.columns["crank_angle"])
+
+
+def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
+    """One 720 deg cycle of ``run`` (solver.study.simulation.Run) from (t0, q0, qd0); returns
+    (CycleOutput, end state (t, q, qd)). The outputs carry the cycle's ``timing`` (TIMING, without the
+    checkpoint's I/O); ``run.steps`` counts the accepted steps and ``run.committed`` holds, per output
+    state, the committed history states its film's rate was taken from (solver.study.fields)."""
+    start = time.perf_counter()
+    model, engine = run.model, run.engine
+    film_before = model.stats.copy() if model is not None else None
+    n_out = int(round(720.0 / run.step_deg))
+    angles = np.linspace(0.0, 720.0, n_out + 1)
+    times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * cycle), dtype=float)
+    times[0] = t0
+    audit = EnergyAudit(run.em, engine.gravity)
+    outputs = StateOutputs(run.em, engine, run.case.small_end.clearance, run.omega, audit)
+    history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
+
+    def step_accepted(t: float) -> None:
+        """An accepted integrator step: a film history's state at its end starts the rate of the next
+        step (implicit Euler over the step, not over the output interval)."""
+        if history:
+            run.joint.commit(t)
+
+    def output_accepted(t: float) -> None:
+        """An accepted output state: a film history's state there starts the next rate (it replaces the
+        commit of the step that ended there: the output's velocities are the consistent ones)."""
+        if history:
+            run.committed.append(model.rate_history(t) or None)
+            run.joint.commit(t)
+
+    run.committed = []
+    row, qd = outputs.at(t0, q0, qd0)
+    output_accepted(t0)
+    rows = [row]
+    work = np.zeros(len(STAGE_COLUMNS))  # STAGE_COLUMNS since the cycle's start
+    energies = [work.copy()]
+    stepper = Stepper(
+        run.em.mechanism,
+        t0,
+        q0,
+        qd,
+        method="ESDIRK32",
+        rtol=run.case.solver.rtol,
+        atol=run.atol,
+        alpha=run.omega,
+        beta=run.omega,
+        jacobian_reuse=True,
+        on_step=step_accepted,
+        stage_values=audit.stage_powers,
+    )
+    q, t = q0, t0
+    for k in range(1, n_out + 1):
+        t = float(times[k])
+        try:
+            q, arrival = stepper.advance_to(t)
+        except IntegrationError as err:
+            raise SimulationError(
+                f"the {run.joint_name} run failed at crank angle {angles[k - 1]:.2f}-"
+                f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}"
+            ) from None
+        row, qd = outputs.at(t, q, arrival)
+        stepper.restart(q, qd)  # the next interval starts from the consistent velocities
+        output_accepted(t)
+        rows.append(row)
+        # the work along the stages, and the kinetic energy the velocities' projection adds (drift)
+        work += stepper.stage_integral
+        work[1] += audit.projection_energy(q, arrival, qd)
+        energies.append(work.copy())
+        if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
+            progress(cycle, angles[k], rows[-1]["h_min"])
+    run.steps += stepper.steps
+    columns = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    columns.update(zip(STAGE_COLUMNS, np.array(energies).T))
+    columns["input_work"] = input_work(columns)
+    columns["crank_angle"] = angles
+    wall = time.perf_counter() - start
+    timing = dict.fromkeys(TIMING, 0.0)
+    timing.update(wall_s=wall, steps=stepper.steps, rejected_steps=stepper.rejected, multibody_s=wall)
+    if film_before is not None:
+        now = model.stats
+        timing.update(
+            film_solves=now.solves - film_before.solves,
+            vi_iterations=now.vi_iterations - film_before.vi_iterations,
+            film_jacobians=now.jacobians - film_before.jacobians,
+            transport_fallbacks=now.transport_fallbacks - film_before.transport_fallbacks,
+            film_solve_s=now.solve_seconds - film_before.solve_seconds,
+            film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds,
+        )
+        timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
+    return CycleOutput(columns, float(np.nanmin(columns["h_min"])), timing), (t, q, qd)
+
+
+def describe_timing(timing: dict[str, float]) -> str:
+    """One line: the counts and where the seconds went (TIMING)."""
+    t = timing
+    return (
+        f"{t['wall_s']:.1f} s; {t['film_solves']:.0f} film solves ({t['vi_iterations']:.0f} VI iterations) "
+        f"{t['film_solve_s']:.1f} s, {t['film_jacobians']:.0f} film Jacobians {t['film_jacobian_s']:.1f} s, "
+        f"{t['steps']:.0f} steps ({t['rejected_steps']:.0f} rejected), multibody/integrator "
+        f"{t['multibody_s']:.1f} s, I/O {t['io_s']:.2f} s"
+        + (
+            f"; {t['transport_fallbacks']:.0f} steps fell back to the upwind transport"
+            if t.get("transport_fallbacks")
+            else ""
+        )
+    )
+
+
+def relative_change(values: list[float]) -> float:
+    """|last - previous| / |last| of a per-cycle history; inf with fewer than two cycles."""
+    if len(values) < 2:
+        return math.inf
+    change = abs(values[-1] - values[-2])
+    return change / abs(values[-1]) if values[-1] != 0 else (0.0 if change == 0 else math.inf)
+
+
+class _AboveTheBar:
+    """A stream for log handlers that prints through ``tqdm.write``: above the progress bar."""
+
+    def write(self, text: str) -> None:
+        if text.strip():
+            tqdm.write(text.rstrip("\n"), file=sys.stderr)
+
+    def flush(self) -> None:
+        pass
+
+
+@contextmanager
+def _logs_above_the_bar():
+    """The terminal's log handlers (stderr) write above the progress bar meanwhile; their filters and
+    formats stay as they are (tqdm's own redirect drops the filters)."""
+    swapped = []
+    for handler in logging.getLogger().handlers:
+        if type(handler) is logging.StreamHandler and handler.stream is sys.stderr:
+            swapped.append((handler, handler.setStream(_AboveTheBar())))
+    try:
+        yield
+    finally:
+        for handler, stream in swapped:
+            handler.setStream(stream)
+
+
+def _progress_bar(case, first: int):
+    """The progress bar of a run (rank 0 with progress) and its report(cycle, angle, h_min)."""
+    bar = tqdm(
+        total=case.solver.max_cycles * 720,
+        initial=first * 720,
+        unit="deg",
+        desc=case.name,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} deg [{elapsed}<{remaining}] "
+        "{postfix}",
+    )
+
+    def report(cycle_index, angle, h_min):
+        bar.n = cycle_index * 720 + angle
+        bar.set_postfix_str(
+            f"cycle {cycle_index + 1}, {angle:.0f} deg, h_min {h_min * 1e6:.3f} um", refresh=False
+        )
+        bar.refresh()
+
+    return bar, report
+
+
+def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: bool):
+    """Integrate cycles of ``run`` (solver.study.simulation.Run) until periodic (and, with
+    oil.thermal = "effective", thermally consistent); checkpoint at cycle ends. Returns (last cycle,
+    count, periodic); ``run.timings`` and ``run.cycle_history`` hold the per-cycle timing and histories."""
+    case, comm, oil = run.case, run.comm, run.oil
+    path = out_dir / "checkpoint.npz"
+    checkpoint = io.read_checkpoint(path, fingerprint) if resume else None
+    timings: list[dict[str, float]] = []
+    if checkpoint is not None:
+        first, t0, q0, qd0 = checkpoint.cycles, checkpoint.t, checkpoint.q, checkpoint.qd
+        history, friction = checkpoint.h_min_history, checkpoint.friction_history
+        timings = checkpoint.timings
+        log.info("resuming after cycle %d from %s", first, path)
+        if run.model is not None:  # an elastic bushing's deformation (JFO: film fraction) history goes on
+            for time_s, film_state in checkpoint.film:
+                run.model.commit_history(film_state, time_s)
+            if checkpoint.film:  # and the next solve starts where the run's would have: from the cycle's end
+                run.model.start_from(checkpoint.film[-1][1])
+        oil.resume(checkpoint.thermal)
+    else:
+        first, history, friction = 0, [], []
+        t0, q0, qd0 = run.em.initial_state(0.0)
+    bar, report = _progress_bar(case, first) if progress and comm.rank == 0 else (None, None)
+
+    cycle = None
+    periodic = False
+    c = case.small_end.clearance
+    friction_tolerance = case.solver.periodic_friction_tolerance
+
+    def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
+        h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+        f_change = relative_change(friction)
+        text = (
+            f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), "
+            f"mean friction power = {friction[-1]:.6g} W (change {f_change:.2g})"
+        )
+        return h_change < case.solver.periodic_tolerance and (
+            friction_tolerance is None or f_change < friction_tolerance
+        ), text
+
+    def at_film_temperature(t_start: float) -> None:  # the temperature the thermal iteration asks for
+        if oil.thermal is not None and oil.thermal.temperature != oil.temperature:
+            set_film_temperature(run, oil.thermal.temperature, t_start)
+
+    def thermal_step(cycle_index: int, cycle: CycleOutput) -> bool:  # True: consistent (or isothermal)
+        if oil.thermal is None:
+            return True
+        try:
+            balance = oil.heat_balance(cycle.columns)
+            following = oil.thermal.record(balance)
+        except ThermalError as err:
+            raise SimulationError(f"cycle {cycle_index + 1}: {err}") from None
+        log.info(
+            "cycle %d: film %.6g C, %.4g Pa s: heat %.4g W, into the oil %.4g W, carried by the side "
+            "flow (%.4g mm^3/s) %.4g W, closure %.2g; next cycle at %.6g C",
+            cycle_index + 1,
+            balance.temperature,
+            oil.viscosity,
+            balance.dissipated_power,
+            balance.heat_to_oil,
+            balance.side_flow * 1e9,
+            balance.heat_carried,
+            balance.closure,
+            following,
+        )
+        return oil.thermal.converged
+
+    try:
+        # log lines go above the progress bar instead of through it
+        with _logs_above_the_bar() if bar is not None else nullcontext():
+            for index in range(first, case.solver.max_cycles):
+                at_film_temperature(t0)
+                cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
+                history.append(cycle.h_min_min)
+                friction.append(cycle.friction_power_mean)
+                settled_now, text = settled()
+                log.info("cycle %d: %s", index + 1, text)
+                consistent = thermal_step(index, cycle)
+                begin = time.perf_counter()
+                timings.append(cycle.timing)
+                if comm.rank == 0:
+                    io.write_checkpoint(
+                        path,
+                        io.Checkpoint(
+                            fingerprint=fingerprint,
+                            cycles=index + 1,
+                            t=t0,
+                            q=q0,
+                            qd=qd0,
+                            h_min_history=history,
+                            friction_history=friction,
+                            timings=timings,
+                            thermal=oil.thermal.state() if oil.thermal is not None else None,
+                            film=run.model.committed_history() if run.model is not None else [],
+                        ),
+                    )
+                cycle.timing["io_s"] = time.perf_counter() - begin
+                cycle.timing["wall_s"] += cycle.timing["io_s"]
+                log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
+                if settled_now and consistent:
+                    periodic = True
+                    break
+    finally:
+        if bar is not None:
+            bar.close()
+    if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
+        at_film_temperature(t0)
+        cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
+        history.append(cycle.h_min_min)
+        friction.append(cycle.friction_power_mean)
+        thermal_step(len(history) - 1, cycle)
+        timings.append(cycle.timing)
+    run.timings = timings
+    run.cycle_history = {"h_min_min": list(history), "friction_power_mean": list(friction)}
+    if not settled()[0]:
+        log.warning(
+            "not periodic after %d cycles (tolerance %g of the clearance%s)",
+            len(history),
+            case.solver.periodic_tolerance,
+            "" if friction_tolerance is None else f"; friction {friction_tolerance:g} of itself",
+        )
+    if oil.thermal is not None and not oil.thermal.converged:
+        log.warning(
+            "not thermally consistent after %d cycles: heat balance closure %.2g (tolerance %g)",
+            len(history),
+            oil.thermal.history[-1].closure,
+            oil.thermal.tolerance,
+        )
+    return cycle, len(history), periodic
