@@ -88,18 +88,18 @@ def interrupt_and_resume(case: Path, monkeypatch, stop_at_cycle: int):
     resumed run's summary; the run log must say where it resumed."""
     from solver.study import simulation
 
-    original = simulation._Run.integrate_cycle
+    original = simulation.Run.integrate_cycle
 
     def stop(self, cycle, *args, **kwargs):
         if cycle == stop_at_cycle:
             raise KeyboardInterrupt
         return original(self, cycle, *args, **kwargs)
 
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", stop)
+    monkeypatch.setattr(simulation.Run, "integrate_cycle", stop)
     with pytest.raises(KeyboardInterrupt):
         simulation.run_case(case, MPI.COMM_SELF)
     assert (case / "results" / "checkpoint.npz").exists() and not (case / "results" / "results.nc").exists()
-    monkeypatch.setattr(simulation._Run, "integrate_cycle", original)
+    monkeypatch.setattr(simulation.Run, "integrate_cycle", original)
     resumed = simulation.run_case(case, MPI.COMM_SELF)
     assert f"resuming after cycle {stop_at_cycle}" in (case / "results" / "run.log").read_text()
     return resumed

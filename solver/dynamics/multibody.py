@@ -516,6 +516,14 @@ class ClearanceJoint(abc.ABC):
             jacobian: also return ``JointForces.jacobian`` (exact, e.g. from the film's factorisation).
         """
 
+    #: the variables of the results' table (solver.study.results.VARIABLES) that ``outputs`` gives
+    OUTPUTS: ClassVar[tuple[str, ...]] = ()
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces: JointForces) -> dict[str, float]:
+        """The joint's own output variables (``OUTPUTS``) at a state whose ``forces`` were just
+        evaluated; a joint with none reports nothing (the study fills them with their defaults)."""
+        return {}
+
 
 @dataclasses.dataclass(frozen=True)
 class LinearClearanceJoint(ClearanceJoint):
