@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
+from solver.film_rules import check_film
 from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
 #: the small end's oil inlets (``oil.inlet``): the last three are an oil supply at ``oil.supply_pressure_bar``
@@ -1046,18 +1047,6 @@ class Oil:
 
     def __post_init__(self) -> None:
         _check_section(self, "oil")
-        if self.cavitation == "jfo" and self.inlet == "none" and not self.cavitation_pressure < 0:
-            raise InputError(
-                f"oil.cavitation_pressure_bar = {self.cavitation_pressure / BAR:g} is out of range with "
-                "oil.cavitation = 'jfo' and oil.inlet = 'none' (allowed: < 0, the edges flooded above "
-                "the cavitation pressure; or an oil supply: inlet 'hole', 'axial-groove' or "
-                "'circumferential-groove')"
-            )
-        if self.cavitation == "jfo" and self.inlet == "max-gap":
-            raise InputError(
-                "oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
-                "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')"
-            )
         data = self.data()
         if self.thermal == "effective" and data is None:
             raise InputError(
@@ -1158,6 +1147,15 @@ class Case:
 
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
+        # the film's compatibility rules, the same the bearing command and FilmSpec check
+        check_film(
+            cavitation=self.oil.cavitation,
+            bushing=self.small_end.elastic,
+            inlet="max-gap" if self.oil.inlet == "max-gap" else "none",
+            supply=self.oil.inlet not in ("none", "max-gap"),
+            cavitation_pressure=self.oil.cavitation_pressure,
+            transport=self.solver.film_fraction_transport,
+        )
 
 
 def _check_supply(oil: Oil, small_end: SmallEnd) -> None:

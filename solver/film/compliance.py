@@ -141,14 +141,6 @@ class EyeGeometry:
         return self.bore_radius + self.bushing_thickness
 
 
-def winkler_coefficient(thickness: float, E: float, nu: float) -> float:
-    """Compliance of a thin layer bonded to a rigid housing, w = k p [m/Pa] (oedometric compression):
-
-    .. math:: k = t (1 + \\nu)(1 - 2 \\nu) / (E (1 - \\nu))
-    """
-    return thickness * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
-
-
 # ---------------------------------------------------------------------------------------------------
 # The compliance: plain numpy data
 
@@ -753,5 +745,4 @@ __all__ = [
     "eye_compliance",
     "eye_mesh",
     "reference_loads",
-    "winkler_coefficient",
 ]

@@ -35,9 +35,9 @@ same UFL expressions as the rigid film, evaluated at the cell midpoints: the ope
 engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
 systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
 block's fixed pattern; the m x m Schur system by GMRES preconditioned with the last complement formed,
-which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler) the matrix
-keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS). Either way
-the film's Jacobian with respect to the kinematics reuses the converged factorisation.
+which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler)
+the matrix keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS).
+Either way the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
 Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
 coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above include it.
@@ -45,7 +45,6 @@ coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above inclu
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import weakref
@@ -60,10 +59,9 @@ import scipy.sparse
 import ufl
 from dolfinx import fem
 
-from solver.errors import FilmNotConverged, out_of_range
+from solver.errors import FilmNotConverged
+from solver.film.bushings import ModalCompliance, WinklerLayer, bushing_model
 from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, _ReducedShell, configured_snes
-from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads, winkler_coefficient
-from solver.film.scaling import FilmScales
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
 log = logging.getLogger(__name__)
@@ -83,48 +81,6 @@ ELASTIC_OPTIONS: dict[str, str | float | int] = {"snes_max_it": 30}
 #: reduced-space method finishes.
 FAR_OPTIONS: dict[str, str | float | int] = {"snes_type": "vinewtonssls", "snes_max_it": 200}
 FAR_TOLERANCE = 1e-6
-
-
-@dataclasses.dataclass(frozen=True)
-class WinklerLayer:
-    """A thin elastic layer (the bushing) on a rigid housing: w = k p node by node (DESIGN 7)."""
-
-    thickness: float  # m
-    E: float  # Pa
-    nu: float
-
-    def __post_init__(self) -> None:
-        if not self.thickness > 0:
-            raise out_of_range("bushing thickness", self.thickness, "> 0 m")
-        if not self.E > 0:
-            raise out_of_range("bushing modulus", self.E, "> 0 Pa")
-        if not 0 <= self.nu < 0.5:
-            raise out_of_range("bushing Poisson ratio", self.nu, "[0, 0.5)")
-
-    @property
-    def coefficient(self) -> float:
-        """k = t (1 + nu)(1 - 2 nu) / (E (1 - nu)) [m/Pa]: laterally constrained compression of the layer."""
-        return winkler_coefficient(self.thickness, self.E, self.nu)
-
-    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
-        """(Phi, g) at the film's nodes (theta [rad], z [m], lumped areas / R^2)."""
-        gains = self.coefficient * scales.pressure / scales.clearance / areas
-        return scipy.sparse.identity(len(theta), format="csr"), gains
-
-
-class ModalCompliance:
-    """The finite-element compliance of the eye (solver.film.compliance) reduced to its m dominant modes."""
-
-    def __init__(self, compliance, modes: int):
-        if not 1 <= modes <= len(compliance.areas):
-            raise out_of_range("compliance modes", modes, f"[1, {len(compliance.areas)}]")
-        self.compliance, self.modes = compliance, modes
-
-    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
-        T = self.compliance.interpolation(theta, z)
-        Psi, lam = self.compliance.modes(self.modes)
-        Phi = scipy.sparse.csr_matrix(T @ Psi)
-        return Phi, lam * scales.pressure * scales.radius**2 / scales.clearance
 
 
 class ElasticFilm:
@@ -608,7 +564,8 @@ class SchurLU:
         self.limit = None
         self.failed = False
         self._package = "petsc"  # of the film block's current factorisation
-        self.S = None  # LU of the last Schur complement formed (exact for its factorisation, then a preconditioner)
+        # LU of the last Schur complement formed (exact for its factorisation, then a preconditioner)
+        self.S = None
         self._exact = False
         self.n_formed = self.n_krylov = 0  # Schur complements formed, Krylov iterations (statistics)
 
@@ -823,50 +780,4 @@ class _DampedLU:
         self.ksp.destroy()
 
 
-def bushing_model(
-    kind: str,
-    *,
-    radius: float,
-    width: float,
-    bushing_thickness: float,
-    eye_outer_radius: float,
-    E_eye: float,
-    nu_eye: float,
-    E_bushing: float,
-    nu_bushing: float,
-    shank_half_angle_deg: float,
-    modes: int,
-    comm: MPI.Comm,
-    shank_angle_deg: float = 180.0,
-):
-    """The bushing's compliance for ``FilmModel(elastic=...)``: None (rigid), a WinklerLayer, or the
-    finite-element eye (solver.film.compliance, from its disk cache when built before) reduced to
-    ``modes`` modes, clamped around ``shank_angle_deg`` (the engine: 180, the shank opposite the top
-    of the eye in the rod frame)."""
-    if kind == "none":
-        return None
-    if kind == "winkler":
-        return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
-    if kind != "fe":
-        raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
-    geometry = EyeGeometry(
-        bore_radius=radius,
-        width=width,
-        bushing_thickness=bushing_thickness,
-        eye_outer_radius=eye_outer_radius,
-        E_eye=E_eye,
-        nu_eye=nu_eye,
-        E_bushing=E_bushing,
-        nu_bushing=nu_bushing,
-        shank_angle_deg=shank_angle_deg,
-        shank_half_angle_deg=shank_half_angle_deg,
-    )
-    compliance = eye_compliance(geometry, comm=comm)
-    loads = reference_loads(compliance)
-    errors = compliance.truncation_error(modes, np.column_stack(list(loads.values())))
-    log.info(
-        "eye compliance with %d modes: truncation error %s",
-        modes,
-        ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)),
-    )
-    return ModalCompliance(compliance, modes)
+__all__ = ["ElasticFilm", "ModalCompliance", "SchurLU", "WinklerLayer", "bushing_model", "deformation_peak"]

@@ -11,7 +11,8 @@ h_T with Kuzmin's upwinding (limited edge by edge when ``MidpointJFO.limited`` i
 TransportLimiter, from the last committed film fraction), s the storage in its rate form:
 m (theta - theta_ref) / dT + mdot theta, m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT
 phi_i), with the deformation's rate inside dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by
-BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.bearing). Every coefficient is evaluated at the cell midpoints
+BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.history). Every coefficient is
+evaluated at the cell midpoints
 (the operator's rule, solver.film.tensors), so the matrices are sums over cells of fixed local
 matrices times these values, and their derivatives with respect to the midpoint gap H_K are as
 cheap. The exact Jacobian::
