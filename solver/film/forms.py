@@ -166,29 +166,35 @@ class FilmForms:
         explicit: dict[tuple[int, int, str], tuple[object, str]] = {}
         gradients: list[tuple[int, object, object]] = []
         w_gradients: list[tuple[int, object, object]] = []
-        # the SI scales in the explicit derivatives and gradients: Constants, so a new viscosity
-        # changes their values (set_scales), not the compiled forms
+        # each (row, group) has the outputs of one SI scale: the integrands are summed unscaled and the
+        # scale, read at each Jacobian (a new viscosity changes it), multiplies their integrals
+        # (explicit derivatives: their integrals times the scale; the gradients, assembled as vectors,
+        # take it as a Constant of their forms: the same vectors as with the value in the form)
+        self.explicit_scales: dict[tuple[int, int, str], str] = {}
         self.scale_constants = {
             name: fem.Constant(space.mesh, PETSc.ScalarType(value)) for name, value in self.scales().items()
         }
         for i, row in enumerate(JACOBIAN_ROWS):
             for group, (measure, _) in groups.items():
                 members = [
-                    (name, e, self.scale_constants[scale])
+                    (name, e, scale)
                     for name, (e, scale, r, gr) in self.outputs.items()
                     if r == row and gr == group and name not in self.force_vectors
                 ]
                 if not members:  # (smooth film: hydrodynamic forces only)
                     continue
-                combined = sum(scale * e for _, e, scale in members)
+                (scale,) = {scale for _, _, scale in members}
+                combined = sum(e for _, e, _ in members)
                 for j, var in enumerate(variables):
                     if not is_zero(ufl.diff(combined, var)):
                         explicit[(i, j, group)] = (ufl.diff(combined, var), group)
-                gradient = ufl.derivative(combined, p, v)
+                        self.explicit_scales[(i, j, group)] = scale
+                scaled = self.scale_constants[scale] * combined
+                gradient = ufl.derivative(scaled, p, v)
                 if not is_zero(gradient):  # dE/dp != 0: the pressure part of the viscous torques
                     gradients.append((i, gradient, measure))
                 if space.W is not None:  # dE/dW: outputs that depend on the film thickness
-                    gradient_W = ufl.derivative(combined, space.W, v)
+                    gradient_W = ufl.derivative(scaled, space.W, v)
                     if not is_zero(gradient_W):
                         w_gradients.append((i, gradient_W, measure))
         # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
@@ -219,7 +225,7 @@ class FilmForms:
         }
 
     def set_scales(self) -> None:
-        """The SI scales anew from the space's (a new viscosity)."""
+        """The SI scales and the prescribed values anew from the space's (a new viscosity)."""
         for name, value in self.scales().items():
             self.scale_constants[name].value = value
         if self.operator is not None:
@@ -319,10 +325,10 @@ class FilmForms:
         solution frame, from the true pressure's sensitivities dP (PETSc vectors) and the deformation's
         dW (arrays; None: rigid)."""
         J = np.zeros((4, self.n_inputs))
-        for keys, functionals in self.explicit:
-            for (i, j, _), value in zip(keys, self._integrate(functionals, in_contact)):
-                J[i, j] += value
         scale = self.scales()
+        for keys, functionals in self.explicit:
+            for key, value in zip(keys, self._integrate(functionals, in_contact)):
+                J[key[0], key[1]] += scale[self.explicit_scales[key]] * value
         for i, row in enumerate(JACOBIAN_ROWS):
             for name, (_, s, r, _) in self.outputs.items():
                 if r == row and name in self.force_vectors:
