@@ -157,6 +157,8 @@ class Film:
         the film, its history and its warm start are kept (no new form, no recompilation)."""
         if not viscosity > 0:
             raise out_of_range("viscosity", viscosity, "> 0 Pa s")
+        if not self.solver.follows_viscosity:
+            raise NotImplementedError("set_viscosity of a film with an elastic bushing: build the film anew")
         self.space.set_scales(dataclasses.replace(self.space.bearing, viscosity=viscosity))
         self.forms.set_scales()
         self.solver.set_scales()

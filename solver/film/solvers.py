@@ -65,6 +65,7 @@ class ReynoldsVI:
 
     has_history = False
     max_eccentricity_ratio = 1.0
+    follows_viscosity = True
 
     def __init__(self, space: FilmSpace, forms: FilmForms):
         self.space, self.forms = space, forms
@@ -135,6 +136,7 @@ class RigidJFO:
 
     has_history = True
     max_eccentricity_ratio = 1.0
+    follows_viscosity = True
 
     def __init__(self, space: FilmSpace, forms: FilmForms):
         self.space, self.forms = space, forms
@@ -224,7 +226,7 @@ class RigidJFO:
 
     def set_scales(self) -> None:
         self.lower = self.space.lower_bounds()
-        self.jfo.set_prescribed(self.space.prescribed(), self.space.cavitation_bound)
+        self.jfo.set_prescribed(jfo_prescribed(self.space))
 
     def close(self) -> None:
         self.jfo.close()
@@ -235,6 +237,8 @@ class CoupledFilm:
     mass-conserving film's rows (solver.film.ehd_jfo)."""
 
     has_history = True
+    #: the bushing's gains and the coupled bounds are built from p_ref: not yet changed in place
+    follows_viscosity = False
 
     #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
     RATE_CONTINUATION = 2.0
@@ -440,7 +444,9 @@ class CoupledFilm:
         return out
 
     def set_scales(self) -> None:
-        raise NotImplementedError
+        # the bushing's gains and the coupled solve's bounds are built from p_ref (solver.film.ehd): a
+        # new coupled solve would be needed, which this film does not do yet
+        raise NotImplementedError("set_viscosity of a film with an elastic bushing: build the film anew")
 
     def close(self) -> None:
         self.ehd.close()
