@@ -133,7 +133,7 @@ class FixedPatternLU:
             obj.destroy()
 
 
-class _ReducedShell:
+class ReducedShell:
     """The operator of a reduced Newton system of ``vinewtonrsls`` when FixedPatternLU solves it: a
     Python matrix of the reduced size with no entries. ``preonly`` applies only the preconditioner,
     which never applies its operator, so the sub-matrix PETSc would extract from the film matrix at
@@ -147,10 +147,10 @@ class _ReducedShell:
         n = isrow.getSize()
         if submat is not None and submat.getSize()[0] == n:
             return submat
-        return PETSc.Mat().createPython(((n, n), (n, n)), _ReducedShell(), comm=mat.getComm())
+        return PETSc.Mat().createPython(((n, n), (n, n)), ReducedShell(), comm=mat.getComm())
 
 
-class _FilmShell(_ReducedShell):
+class _FilmShell(ReducedShell):
     """The SNES Jacobian of the fixed-pattern VI: applies the film matrix, gives empty reduced shells."""
 
     def __init__(self, A: PETSc.Mat):

@@ -89,7 +89,7 @@ from dolfinx.io import gmshio
 from ufl.core.expr import Expr
 
 from solver.errors import out_of_range
-from solver.film.mesh import _initialize_gmsh
+from solver.film.mesh import initialize_gmsh
 
 log = logging.getLogger(__name__)
 
@@ -429,7 +429,7 @@ def eye_mesh(
     gmsh runs on rank 0; dolfinx distributes the mesh over ``comm``.
     """
     if comm.rank == 0:
-        _initialize_gmsh()
+        initialize_gmsh()
         gmsh.model.add("eye")
         try:
             _build_gmsh_model(geometry, element_size, bore_element_size, clamp)

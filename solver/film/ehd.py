@@ -61,7 +61,7 @@ from dolfinx import fem
 
 from solver.errors import FilmNotConverged
 from solver.film.bushings import ModalCompliance, WinklerLayer, bushing_model
-from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, _ReducedShell, configured_snes
+from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, ReducedShell, configured_snes
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
 log = logging.getLogger(__name__)
@@ -185,11 +185,13 @@ class ElasticFilm:
         self._shell = None
         if isinstance(self.lu, SchurLU):  # the reduced-space SNES then needs the blocks only
             self._shell = PETSc.Mat().createPython(
-                ((self.N, self.N), (self.N, self.N)), _ReducedShell(), comm=self.comm
+                ((self.N, self.N), (self.N, self.N)), ReducedShell(), comm=self.comm
             )
             self._shell.setUp()
             self.snes.setJacobian(self._blocks_only, self._shell)
-        self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
+        self.damped = DampedLU(
+            self.comm, self._limit
+        )  # the semismooth method's: LU of its full matrix, limited step
         for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
             pc = snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
@@ -748,13 +750,14 @@ class SchurLU:
             obj.destroy()
 
 
-class _DampedLU:
+class DampedLU:
     """Python PC of the coupled VI: an LU of the semismooth Newton matrix (its pattern is fixed, so
-    PETSc refactorises it numerically only) and the step scaled by ``ElasticFilm._limit``."""
+    PETSc refactorises it numerically only) and the step scaled by ``limit(step)`` (a bound method,
+    held weakly: the PC is owned by its film's SNES, so no reference cycle goes through C)."""
 
-    def __init__(self, film: ElasticFilm):
-        self.film = weakref.proxy(film)  # the PC is owned by the film's SNES: no reference cycle through C
-        self.ksp = PETSc.KSP().create(film.comm)
+    def __init__(self, comm, limit):
+        self.limit = weakref.WeakMethod(limit)
+        self.ksp = PETSc.KSP().create(comm)
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")
         self.ksp.getPC().setFactorSolverType("mumps")
@@ -774,10 +777,18 @@ class _DampedLU:
             self.failed = True
             y.set(float("nan"))
             return
-        y.scale(self.film._limit(y.getArray(readonly=True)))
+        y.scale(self.limit()(y.getArray(readonly=True)))
 
     def destroy(self, pc=None) -> None:
         self.ksp.destroy()
 
 
-__all__ = ["ElasticFilm", "ModalCompliance", "SchurLU", "WinklerLayer", "bushing_model", "deformation_peak"]
+__all__ = [
+    "DampedLU",
+    "ElasticFilm",
+    "ModalCompliance",
+    "SchurLU",
+    "WinklerLayer",
+    "bushing_model",
+    "deformation_peak",
+]

@@ -42,7 +42,7 @@ from dolfinx import fem
 
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import configured_snes
-from solver.film.ehd import ElasticFilm, _DampedLU
+from solver.film.ehd import DampedLU, ElasticFilm
 from solver.film.jfo import JFOSolution, semismooth_reason, upwind_pick
 from solver.film.tensors import MIDPOINT
 
@@ -219,7 +219,7 @@ class ElasticJFOFilm(ElasticFilm):
         self.jfo_snes.setFunction(self._residual, self.r)
         self.jfo_snes.setJacobian(self._jfo_jacobian, self.A)
         self.jfo_snes.setConvergenceTest(self._converged)
-        self.jfo_lu = _DampedLU(self)
+        self.jfo_lu = DampedLU(self.comm, self._limit)
         pc = self.jfo_snes.getKSP().getPC()
         pc.setType(PETSc.PC.Type.PYTHON)
         pc.setPythonContext(self.jfo_lu)
@@ -400,7 +400,7 @@ class ElasticJFOFilm(ElasticFilm):
 
 
 class _Operators:
-    """What _DampedLU.setUp asks of a PC: its operators."""
+    """What DampedLU.setUp asks of a PC: its operators."""
 
     def __init__(self, A: PETSc.Mat):
         self.A = A

@@ -166,7 +166,7 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
 _gmsh_ready = False
 
 
-def _initialize_gmsh() -> None:
+def initialize_gmsh() -> None:
     """Initialise gmsh once per process (gmsh 4.8 has no ``isInitialized``)."""
     global _gmsh_ready
     if not _gmsh_ready:
@@ -183,7 +183,7 @@ def film_mesh(spec: FilmMeshSpec, comm: MPI.Comm):
     """
     rank = 0
     if comm.rank == rank:
-        _initialize_gmsh()
+        initialize_gmsh()
         gmsh.model.add("film")
         try:
             _build_gmsh_model(spec)
