@@ -3,9 +3,6 @@
 - ``FilmSolver``: what a Film (solver.film.model) asks of the solver the factory picked: solve at the
   space's constants, the sensitivities, the history state, the outputs only it knows. Implementations:
   solver.film.solvers.ReynoldsVI, RigidJFO, CoupledFilm.
-- ``CavitationBlock``: the film rows of the coupled elastic Newton (solver.film.ehd.CoupledSolve):
-  residual and Jacobian blocks at a state, its nonlinear solver, its sensitivities. Implementations:
-  solver.film.ehd.ReynoldsBlock, solver.film.ehd_jfo.JFOBlock.
 - ``Bushing``: solver.film.bushings.Bushing (shapes and gains of the deformation).
 """
 
@@ -18,7 +15,7 @@ import numpy as np
 from solver.film.bushings import Bushing
 from solver.film.history import FilmHistory
 
-__all__ = ["Bushing", "CavitationBlock", "FilmSolver"]
+__all__ = ["Bushing", "FilmSolver"]
 
 
 class FilmSolver(Protocol):
@@ -44,13 +41,3 @@ class FilmSolver(Protocol):
     def set_scales(self) -> None: ...  # after the space's scales changed (a new viscosity)
     def close(self) -> None: ...
 
-
-class CavitationBlock(Protocol):
-    """The film rows of the coupled elastic solve (solver.film.ehd.CoupledSolve)."""
-
-    def film_residual(self, u: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-    def pressure(self, u: np.ndarray) -> np.ndarray: ...  # P of the film unknown u
-    def jacobian_blocks(self, u: np.ndarray, k: np.ndarray) -> tuple: ...  # (dR_u/du, dR_u/dq)
-    def solve(self, x0: np.ndarray) -> tuple[int, np.ndarray]: ...  # its nonlinear solver
-    def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]: ...
-    def close(self) -> None: ...
