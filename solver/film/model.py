@@ -152,6 +152,11 @@ class Film:
         return self.history.before(time_s)
 
     # -- a new viscosity ----------------------------------------------------------------------------
+    @property
+    def follows_viscosity(self) -> bool:
+        """``set_viscosity`` works in place (rigid films); an elastic one must be built anew for now."""
+        return self.solver.follows_viscosity
+
     def set_viscosity(self, viscosity: float) -> None:
         """The oil's viscosity [Pa s] anew: the scales, p_ref in the forms and what follows from them;
         the film, its history and its warm start are kept (no new form, no recompilation)."""
