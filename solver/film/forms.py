@@ -100,7 +100,7 @@ class FilmForms:
         self.l = compile_form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         couette_j, couette_b, pressure_part = reynolds.shear_traction_integrands(p, g, space.roughness)
         if space.piezo is not None:
-            ratio = space.piezo.ratio(space.p_ref * p, mod=ufl)
+            ratio = space.piezo.ratio(space.p_ref_in_forms * p, mod=ufl)
             couette_j, couette_b = ratio * couette_j, ratio * couette_b
         # functional name -> (dimensionless integrand, SI scale's name, Jacobian row it adds to, group)
         self.outputs = {
@@ -115,7 +115,7 @@ class FilmForms:
         contact = space.contact
         if contact is not None:
             slip_reg = space.spec.slip_regularisation / space.scales.speed
-            P_c, tau_c, area = reynolds.asperity_integrands(g, contact, space.p_ref, slip_reg)
+            P_c, tau_c, area = reynolds.asperity_integrands(g, contact, space.p_ref_in_forms, slip_reg)
             c_over_R = space.bearing.clearance / space.bearing.radius
             self.outputs.update(
                 {
@@ -168,12 +168,14 @@ class FilmForms:
         w_gradients: list[tuple[int, object, object]] = []
         # each (row, group) has the outputs of one SI scale: the integrands are summed unscaled and the
         # scale, read at each Jacobian (a new viscosity changes it), multiplies their integrals
-        # (explicit derivatives: their integrals times the scale; the gradients, assembled as vectors,
-        # take it as a Constant of their forms: the same vectors as with the value in the form)
+        # (the explicit derivatives and the gradients have the scale at build in their integrands, as
+        # numbers, and their values are multiplied by the scale's change since: 1.0 until a new
+        # viscosity, so the same values bit for bit as with the scale in the forms; a fem.Constant in
+        # the explicit derivatives' Expression gave wrong values with dolfinx 0.5.2)
         self.explicit_scales: dict[tuple[int, int, str], str] = {}
-        self.scale_constants = {
-            name: fem.Constant(space.mesh, PETSc.ScalarType(value)) for name, value in self.scales().items()
-        }
+        self.built_scales = self.scales()
+        gradient_scales: list[str] = []
+        w_gradient_scales: list[str] = []
         for i, row in enumerate(JACOBIAN_ROWS):
             for group, (measure, _) in groups.items():
                 members = [
@@ -184,23 +186,24 @@ class FilmForms:
                 if not members:  # (smooth film: hydrodynamic forces only)
                     continue
                 (scale,) = {scale for _, _, scale in members}
-                combined = sum(e for _, e, _ in members)
+                at_build = sum(self.built_scales[scale] * e for _, e, _ in members)
                 for j, var in enumerate(variables):
-                    if not is_zero(ufl.diff(combined, var)):
-                        explicit[(i, j, group)] = (ufl.diff(combined, var), group)
+                    if not is_zero(ufl.diff(at_build, var)):
+                        explicit[(i, j, group)] = (ufl.diff(at_build, var), group)
                         self.explicit_scales[(i, j, group)] = scale
-                scaled = self.scale_constants[scale] * combined
-                gradient = ufl.derivative(scaled, p, v)
+                gradient = ufl.derivative(at_build, p, v)
                 if not is_zero(gradient):  # dE/dp != 0: the pressure part of the viscous torques
                     gradients.append((i, gradient, measure))
+                    gradient_scales.append(scale)
                 if space.W is not None:  # dE/dW: outputs that depend on the film thickness
-                    gradient_W = ufl.derivative(scaled, space.W, v)
+                    gradient_W = ufl.derivative(at_build, space.W, v)
                     if not is_zero(gradient_W):
                         w_gradients.append((i, gradient_W, measure))
+                        w_gradient_scales.append(scale)
         # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
         self.n_inputs = len(variables)
-        self.gradient_rows = [i for i, _, _ in gradients]
-        self.w_gradient_rows = [i for i, _, _ in w_gradients]
+        self.gradient_rows = [(i, name) for (i, _, _), name in zip(gradients, gradient_scales)]
+        self.w_gradient_rows = [(i, name) for (i, _, _), name in zip(w_gradients, w_gradient_scales)]
         self.jacobian_vectors = BlockedVectors(
             space.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients]
         )
@@ -225,9 +228,8 @@ class FilmForms:
         }
 
     def set_scales(self) -> None:
-        """The SI scales and the prescribed values anew from the space's (a new viscosity)."""
-        for name, value in self.scales().items():
-            self.scale_constants[name].value = value
+        """The prescribed values anew from the space's (a new viscosity; the SI scales are read at each
+        call)."""
         if self.operator is not None:
             self.operator.set_bc_values(self.space.bcs)
 
@@ -328,16 +330,17 @@ class FilmForms:
         scale = self.scales()
         for keys, functionals in self.explicit:
             for key, value in zip(keys, self._integrate(functionals, in_contact)):
-                J[key[0], key[1]] += scale[self.explicit_scales[key]] * value
+                name = self.explicit_scales[key]
+                J[key[0], key[1]] += value * (scale[name] / self.built_scales[name])
         for i, row in enumerate(JACOBIAN_ROWS):
             for name, (_, s, r, _) in self.outputs.items():
                 if r == row and name in self.force_vectors:
                     J[i] += scale[s] * np.array([self.force_vectors[name].dot(d) for d in dP])
-        for i, gradient in zip(self.gradient_rows, gradients):
-            J[i] += np.array([gradient.dot(d) for d in dP])
-        for i, gradient in zip(self.w_gradient_rows, w_gradients):  # through the deformation
+        for (i, name), gradient in zip(self.gradient_rows, gradients):
+            J[i] += np.array([gradient.dot(d) for d in dP]) * (scale[name] / self.built_scales[name])
+        for (i, name), gradient in zip(self.w_gradient_rows, w_gradients):  # through the deformation
             values = gradient.getArray(readonly=True)
-            J[i] += np.array([values @ d for d in dW])
+            J[i] += np.array([values @ d for d in dW]) * (scale[name] / self.built_scales[name])
         return J
 
     def close(self) -> None:

@@ -254,7 +254,8 @@ class CoupledFilm:
         k_theta, k_z, f = reynolds.reynolds_coefficients(g, space.roughness)
         P_c = ufl.as_ufl(0.0)
         if space.contact is not None:
-            P_c = space.contact.pressure(g.H / space.params.S, mod=ufl) / space.p_ref
+            # (p_ref as a number: the coupled film takes no new viscosity in place, follows_viscosity)
+            P_c = space.contact.pressure(g.H / space.params.S, mod=ufl) / space.scales.pressure
         # expanded here: FFCx lowers dW/dtheta = grad(W).t inside its variable before it applies
         # derivatives, and the derivative with respect to the lowered variable comes out zero
         derivatives = [
