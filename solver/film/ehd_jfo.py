@@ -42,7 +42,8 @@ from dolfinx import fem
 
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import configured_snes
-from solver.film.ehd import DampedLU, ElasticFilm
+from solver.film.coupled_lu import DampedLU
+from solver.film.ehd import ElasticFilm
 from solver.film.jfo import JFOSolution, semismooth_reason, upwind_pick
 from solver.film.tensors import MIDPOINT
 
