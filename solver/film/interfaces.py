@@ -40,4 +40,3 @@ class FilmSolver(Protocol):
     def nodal_fields(self) -> dict[str, tuple[str, np.ndarray]]: ...  # extra output fields (SI)
     def set_scales(self) -> None: ...  # after the space's scales changed (a new viscosity)
     def close(self) -> None: ...
-
