@@ -5,7 +5,8 @@ bearing width and eccentricity, for journal rotation and for pure squeeze.
                                                         [--eccentricities 0.2,0.6,0.95]
 
 For each B/D, eccentricity and motion the load is computed at the element size given (``--mesh-size``,
-relative to the pin radius; default: the film's default for that width, default_mesh_size) and at two refinements (1/2 and 1/4 of it);
+relative to the pin radius; default: the film's default for that width, default_mesh_size) and at two
+refinements (1/2 and 1/4 of it);
 the mesh-converged value is the Richardson extrapolation of the two finest with the observed order
 (P1 with the midpoint rule converges as h^2). Prints the error of the given size, the observed
 order and the unknowns, as a markdown table. The inlet is the max-gap line (the bearing command's

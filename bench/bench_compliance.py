@@ -27,13 +27,13 @@ from mpi4py import MPI
 
 import numpy as np
 
+from solver.film.bushings import winkler_coefficient
 from solver.film.compliance import (
     DEFAULT_ELEMENT_SIZE,
     DEFAULT_MODES,
     ElasticEye,
     EyeGeometry,
     reference_loads,
-    winkler_coefficient,
 )
 
 REFERENCE = EyeGeometry(bore_radius=0.01, width=0.02, bushing_thickness=1.5e-3, eye_outer_radius=0.017)

@@ -86,14 +86,16 @@ def main() -> None:
         start = time.perf_counter()
         record(args.calls)
         print(
-            f"recorded the film calls of the periodic cycle in {time.perf_counter() - start:.0f} s: {args.calls}"
+            f"recorded the film calls of the periodic cycle in {time.perf_counter() - start:.0f} s: "
+            f"{args.calls}"
         )
     calls = np.load(args.calls)
     runs = [replay(calls) for _ in range(args.repeat)]
     solves, jacobians = int(np.sum(calls[:, 0] == 0)), int(np.sum(calls[:, 0] == 1))
     print(
         f"{solves} film solves: {statistics.median(r[0] for r in runs):.3f} ms each "
-        f"({runs[0][2]:.2f} VI iterations); {jacobians} Jacobians: {statistics.median(r[1] for r in runs):.3f} ms each "
+        f"({runs[0][2]:.2f} VI iterations); {jacobians} Jacobians: "
+        f"{statistics.median(r[1] for r in runs):.3f} ms each "
         f"(medians of {args.repeat} replays)"
     )
     print("checksum (h_min, p_max, torques, Jacobians): " + " ".join(f"{v:.10e}" for v in runs[0][3]))

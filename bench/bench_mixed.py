@@ -49,7 +49,8 @@ def main() -> None:
     print("|---|---|---|---|")
     print(f"| smooth Reynolds | {smooth['dofs']} | {smooth['solve_ms']:.1f} | {smooth['jacobian_ms']:.1f} |")
     print(
-        f"| averaged Reynolds + Greenwood-Tripp | {rough['dofs']} | {rough['solve_ms']:.1f} | {rough['jacobian_ms']:.1f} |"
+        f"| averaged Reynolds + Greenwood-Tripp | {rough['dofs']} | {rough['solve_ms']:.1f} | "
+        f"{rough['jacobian_ms']:.1f} |"
     )
     print(
         f"ratio rough/smooth: solve {rough['solve_ms'] / smooth['solve_ms']:.2f}, "

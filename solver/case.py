@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
+from solver.film_rules import check_film
 from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
 #: the small end's oil inlets (``oil.inlet``): the last three are an oil supply at ``oil.supply_pressure_bar``
@@ -398,7 +399,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         choices=("none", "winkler", "fe"),
         doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
         "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-        "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an engine cycle "
+        "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an "
+        "engine cycle "
         "costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are nodal: one LU of "
         "the whole coupled matrix; see the README's benchmarks)",
     ),
@@ -547,7 +549,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         0.0,
         0.95,
         closed=True,
-        doc="thermal = effective: share of the dissipated power conducted away through pin and rod instead of "
+        doc="thermal = effective: share of the dissipated power conducted away through pin and rod "
+        "instead of "
         "carried by the side flow (an assumption, not computed; 0: adiabatic film)",
     ),
     _f(
@@ -603,7 +606,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         choices=("reynolds", "jfo"),
         doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
         "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
-        "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In an engine "
+        "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In "
+        "an engine "
         "run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, rtol 1e-7, "
         "as `cases/reference-2000rpm-jfo`; the README's refinement study)",
     ),
@@ -628,7 +632,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         -360.0,
         360.0,
         unit="deg",
-        doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the small end)",
+        doc="with inlet = hole: angle of the hole in the rod frame from the rod axis (0 = top of the "
+        "small end)",
     ),
     _f(
         "oil",
@@ -649,7 +654,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         -360.0,
         360.0,
         unit="deg",
-        doc="with inlet = axial-groove: angle of the groove's centre in the rod frame from the rod axis (0 = top "
+        doc="with inlet = axial-groove: angle of the groove's centre in the rod frame from the rod "
+        "axis (0 = top "
         "of the small end)",
     ),
     _f(
@@ -791,7 +797,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         1.0,
         0.0,
         1.0,
-        doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the half width",
+        doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the "
+        "half width",
     ),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec(
@@ -858,7 +865,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         720.0,
         closed=True,
         unit="deg",
-        doc="crank-angle step of the ParaView time series of the film fields (rounded to a multiple of step_deg, at least one; 0: none)",
+        doc="crank-angle step of the ParaView time series of the film fields (rounded to a multiple "
+        "of step_deg, at least one; 0: none)",
     ),
     _f(
         "solver",
@@ -1046,18 +1054,6 @@ class Oil:
 
     def __post_init__(self) -> None:
         _check_section(self, "oil")
-        if self.cavitation == "jfo" and self.inlet == "none" and not self.cavitation_pressure < 0:
-            raise InputError(
-                f"oil.cavitation_pressure_bar = {self.cavitation_pressure / BAR:g} is out of range with "
-                "oil.cavitation = 'jfo' and oil.inlet = 'none' (allowed: < 0, the edges flooded above "
-                "the cavitation pressure; or an oil supply: inlet 'hole', 'axial-groove' or "
-                "'circumferential-groove')"
-            )
-        if self.cavitation == "jfo" and self.inlet == "max-gap":
-            raise InputError(
-                "oil.cavitation = 'jfo' with oil.inlet = 'max-gap' is out of range (allowed with the "
-                "film fraction's history: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')"
-            )
         data = self.data()
         if self.thermal == "effective" and data is None:
             raise InputError(
@@ -1158,6 +1154,15 @@ class Case:
 
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
+        # the film's compatibility rules, the same the bearing command and FilmSpec check
+        check_film(
+            cavitation=self.oil.cavitation,
+            bushing=self.small_end.elastic,
+            inlet="max-gap" if self.oil.inlet == "max-gap" else "none",
+            supply=self.oil.inlet not in ("none", "max-gap"),
+            cavitation_pressure=self.oil.cavitation_pressure,
+            transport=self.solver.film_fraction_transport,
+        )
 
 
 def _check_supply(oil: Oil, small_end: SmallEnd) -> None:

@@ -79,3 +79,17 @@ def test_the_cycle_finder_finds_a_cycle():
     assert _cycle(graph) is None
     graph.add_import(importer="solver.c", imported="solver.a")
     assert _cycle(graph) == ["solver.a", "solver.b", "solver.c", "solver.a"]
+
+
+def test_the_film_value_types_import_no_dolfinx():
+    """solver.film.types (Bearing, Kinematics, FilmResult, ...) is numpy only: the dynamics can describe
+    a film's state without the finite-element stack; solver.film_rules too (the case loader's)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, solver.film.types, solver.film_rules, solver.film.spec, solver.film.history; "
+        "print(sorted(m for m in ('dolfinx', 'petsc4py', 'gmsh', 'ufl') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from solver.errors import InputError
 from solver.film.surface import Surface
+from solver.film_rules import default_inlet
 from solver.study import io
 
 
@@ -131,8 +132,8 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("max-gap", "none"),
         default=None,
         help="max-gap: ambient pressure along the line of maximum film thickness (the tables' "
-        "assumption, default without a supply); none: cavitation alone decides (default, and the "
-        "only choice, with an oil supply below)",
+        "assumption, the default where the model allows it); none: cavitation alone decides (the "
+        "default, and the only choice, with an oil supply below or with --elastic fe)",
     )
     add_supply_arguments(parser)
 
@@ -200,7 +201,8 @@ SUPPLY_FLAGS = {  # supply -> its flags (argparse dest, flag)
 
 def resolve_supply(args) -> None:
     """Check the oil supply options, set ``args.supply`` (``"none"`` or a key of SUPPLY_FLAGS) and
-    ``args.inlet`` (default: ``"none"`` with a supply, ``"max-gap"`` without); errors name the flags."""
+    ``args.inlet`` (default: solver.film_rules.default_inlet, max-gap where the model allows it);
+    errors name the flags."""
     given = [
         name
         for name, flags in SUPPLY_FLAGS.items()
@@ -219,11 +221,6 @@ def resolve_supply(args) -> None:
             raise InputError(
                 f"{' '.join(present)} without {' and '.join(missing)} (allowed: all of "
                 f"{', '.join(flag for _, flag in SUPPLY_FLAGS[args.supply])})"
-            )
-        if args.inlet == "max-gap":
-            raise InputError(
-                f"--inlet max-gap with {SUPPLY_FLAGS[args.supply][0][1]} (allowed with an oil supply: "
-                "--inlet none)"
             )
         if args.supply == "hole" and not args.hole_diameter < min(args.width, args.radius):
             raise InputError(
@@ -245,8 +242,13 @@ def resolve_supply(args) -> None:
             "--supply-pressure without an oil supply (allowed: with --hole-*, --groove-* or "
             "--circumferential-groove)"
         )
-    if args.inlet is None:
-        args.inlet = "none" if args.supply != "none" else "max-gap"
+    if args.inlet is None:  # the default the model allows (solver.film_rules)
+        args.inlet = default_inlet(
+            cavitation=getattr(args, "cavitation", "reynolds"),
+            bushing=getattr(args, "elastic", "none"),
+            supply=args.supply != "none",
+            quasi_static=True,
+        )
 
 
 SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
@@ -319,7 +321,8 @@ SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
 
 
 def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
-    """Roughness, asperity and material options (solver.film.surface.Surface; defaults: the reference engine)."""
+    """Roughness, asperity and material options (solver.film.surface.Surface; defaults: the reference
+    engine)."""
     g = parser.add_argument_group("surfaces (mixed lubrication; rough when a sigma > 0)")
     for field, (flag, type_, help_text) in SURFACE_FLAGS.items():
         g.add_argument(flag, dest=field, type=type_, default=None, help=help_text)
@@ -349,7 +352,8 @@ def surface_from_args(args):
 
 
 def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
-    """The bushing's deformation and the oil's piezoviscosity (DESIGN 7; solver.film.ehd, solver.film.viscosity)."""
+    """The bushing's deformation and the oil's piezoviscosity (DESIGN 7; solver.film.ehd,
+    solver.film.viscosity)."""
     g = parser.add_argument_group("elastic bushing and piezoviscous oil")
     g.add_argument(
         "--elastic",
@@ -357,7 +361,7 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
         default="none",
         help="bushing deformation: none (rigid, default), winkler (thin bushing on a rigid housing, "
         "needs --bushing-thickness) or fe (finite-element eye and bushing, cached on disk; needs "
-        "--bushing-thickness, --eye-outer-radius and --inlet none)",
+        "--bushing-thickness and --eye-outer-radius; without --inlet its inlet is none, the one it allows)",
     )
     g.add_argument(
         "--bushing-thickness",
@@ -413,10 +417,10 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def elastic_from_args(args, surface, comm):
-    """(elastic, piezoviscosity) models of the parsed options (after _check_elastic); the bushing's
-    moduli are the surface's."""
-    from solver.film.ehd import bushing_model  # dolfinx: after the arguments are checked
+def elastic_from_args(args, surface):
+    """(bushing, piezoviscosity) descriptions of the parsed options (after _check_elastic; cheap: the FE
+    eye is built by the film's factory); the bushing's moduli are the surface's."""
+    from solver.film.bushings import bushing_model
     from solver.film.viscosity import viscosity_law
 
     elastic = bushing_model(
@@ -431,7 +435,6 @@ def elastic_from_args(args, surface, comm):
         nu_bushing=surface.nu_bushing,
         shank_half_angle_deg=args.shank_half_angle,
         modes=args.compliance_modes,
-        comm=comm,
         shank_angle_deg=args.shank_angle,
     )
     return elastic, viscosity_law(args.piezoviscosity, args.pressure_viscosity, args.viscosity)
@@ -442,20 +445,11 @@ def _check_elastic(args, comm) -> None:
         return
     if args.bushing_thickness is None:
         raise InputError(f"--elastic {args.elastic} needs --bushing-thickness (allowed: > 0 m)")
-    if comm.size != 1 or getattr(args, "degree", 1) != 1:
-        raise InputError(
-            f"--elastic {args.elastic} runs on one rank with --degree 1 (allowed: no mpirun, degree 1)"
-        )
     if args.elastic == "fe":
         if args.eye_outer_radius is None or not args.eye_outer_radius > args.radius + args.bushing_thickness:
             raise InputError(
                 f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
                 f"bushing thickness = {args.radius + args.bushing_thickness:g} m)"
-            )
-        if args.inlet == "max-gap":
-            raise InputError(
-                "--elastic fe with --inlet max-gap: the max-gap frame turns the film against the eye "
-                "(allowed: --inlet none)"
             )
         if not 1 <= args.compliance_modes <= 1000:
             raise InputError(
@@ -547,7 +541,7 @@ def resolve_viscosity(args) -> None:
 
 def bearing_from_args(args):
     """The Bearing of the parsed options (after resolve_viscosity and resolve_supply)."""
-    from solver.film.bearing import Bearing  # dolfinx: after the arguments are checked
+    from solver.film.types import Bearing
 
     supply = {}
     if args.supply == "hole":
@@ -582,11 +576,9 @@ def run(args, comm) -> int:
     resolve_supply(args)
     _check(args)
     _check_elastic(args, comm)
-    from solver.film.bearing import (  # dolfinx: after the checks
-        FilmModel,
-        Kinematics,
-        equilibrium,
-    )
+    from solver.film.equilibrium import equilibrium
+    from solver.film.spec import FilmSpec
+    from solver.film.types import Kinematics
 
     bearing = bearing_from_args(args)
     surface = surface_from_args(args)
@@ -594,20 +586,24 @@ def run(args, comm) -> int:
     rate = args.eccentricity_rate
     omega_ref = abs(omega) if omega != 0 else abs(rate)
     start = time.perf_counter()
-    elastic, piezoviscosity = elastic_from_args(args, surface, comm)
-    model = FilmModel(
-        bearing,
-        comm,
+    bushing, piezoviscosity = elastic_from_args(args, surface)
+    spec = FilmSpec(  # the film's rules, before any mesh or compliance (solver.film_rules)
+        bearing=bearing,
         omega_ref=omega_ref,
         mesh_size=args.mesh_size,
         degree=args.degree,
         roughness=surface.roughness(),
         contact=surface.contact(),
         slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3,
-        elastic=elastic,
+        bushing=bushing,
         piezoviscosity=piezoviscosity,
         cavitation=args.cavitation,
+        quasi_static=True,
     )
+    spec.check(ranks=comm.size)
+    from solver.film.factory import make_film  # dolfinx: after the checks
+
+    model = make_film(spec, comm)
     setup_time = time.perf_counter() - start
     c = args.clearance
     load_angle = -math.pi / 2  # the load acts along -y

@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def sweep(model, load: float, speeds_rpm: np.ndarray, radius: float, progress=None) -> dict[str, np.ndarray]:
     """Equilibria at the given speeds (any order; solved from fast to slow). SI arrays, same order."""
-    from solver.film.bearing import equilibrium  # dolfinx: after the arguments are checked
+    from solver.film.equilibrium import equilibrium
 
     order = np.argsort(speeds_rpm)[::-1]
     keys = (
@@ -115,7 +115,7 @@ def run(args, comm) -> int:
         raise InputError(
             f"--speed-min = {args.speed_min:g} is out of range (allowed: < --speed-max = {args.speed_max:g})"
         )
-    from solver.film.bearing import FilmModel  # dolfinx: after the arguments are checked
+    from solver.film.spec import FilmSpec
 
     bearing = bearing_from_args(args)
     surface = surface_from_args(args)
@@ -125,15 +125,19 @@ def run(args, comm) -> int:
     # Asperity friction is smoothed below 1e-3 of the slowest sliding speed, so that it is fully
     # developed (f -> mu_f) at every speed of the sweep.
     slowest_sliding = args.radius * args.speed_min * 2 * math.pi / 60
-    with FilmModel(
-        bearing,
-        comm,
+    spec = FilmSpec(  # the film's rules, before any mesh (solver.film_rules)
+        bearing=bearing,
         omega_ref=args.speed_max * 2 * math.pi / 60,
         roughness=surface.roughness(),
         contact=surface.contact(),
         mesh_size=args.mesh_size,
         slip_regularisation=1e-3 * slowest_sliding,
-    ) as model:
+        quasi_static=True,
+    )
+    spec.check(ranks=comm.size)
+    from solver.film.factory import make_film  # dolfinx: after the checks
+
+    with make_film(spec, comm) as model:
         bar = None
         if comm.rank == 0 and not args.json:
             bar = tqdm(total=len(speeds), desc="stribeck", unit="speed", file=sys.stderr)

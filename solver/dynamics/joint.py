@@ -65,7 +65,7 @@ class FilmJoint(ClearanceJoint):
     CACHE_SIZE = 512
 
     def __init__(self, model):
-        from solver.film.bearing import Kinematics  # dolfinx: a FilmJoint has a film model, so it is loaded
+        from solver.film.types import Kinematics  # (numpy only)
 
         self._kinematics = Kinematics  # (imported once here, not on every force evaluation)
         self.model = model
@@ -78,6 +78,13 @@ class FilmJoint(ClearanceJoint):
         self._commits = 0
         self._last_key: tuple | None = None
         self.n_solves = self.n_jacobians = self.n_failures = 0
+
+    def set_viscosity(self, viscosity: float) -> None:
+        """The oil's viscosity [Pa s] anew: the film keeps its history and warm start
+        (solver.film.model.Film.set_viscosity); the results kept for the old viscosity are dropped."""
+        self.model.set_viscosity(viscosity)
+        self._cache.clear()
+        self._key = None
 
     def _state_key(self, ecc, ecc_rate, omega_rel, t) -> tuple:
         key = (float(ecc[0]), float(ecc[1]), float(ecc_rate[0]), float(ecc_rate[1]), float(omega_rel))
@@ -202,6 +209,12 @@ class ShortBearingJoint(ClearanceJoint):
                 raise out_of_range(name, getattr(self, name), "> 0")
         object.__setattr__(self, "_theta", (np.arange(self.points) + 0.5) * 2 * math.pi / self.points)
 
+    def set_viscosity(self, viscosity: float) -> None:
+        """The oil's viscosity [Pa s] anew (the forces are linear in it)."""
+        if not viscosity > 0:
+            raise out_of_range("viscosity", viscosity, "> 0")
+        object.__setattr__(self, "viscosity", viscosity)  # (frozen: the one value that follows the oil)
+
     def _wedge_and_squeeze(self, ex, ey, rx, ry, w):
         """(cos, sin, h, dh/dtheta, g) on the quadrature angles; the film is pressurised where g < 0."""
         cos, sin = np.cos(self._theta), np.sin(self._theta)
@@ -298,6 +311,9 @@ class DryContactJoint(ClearanceJoint):
         for name in ("radius", "clearance", "stiffness", "impact_speed", "slip_regularisation"):
             if not getattr(self, name) > 0:
                 raise out_of_range(name, getattr(self, name), "> 0")
+
+    def set_viscosity(self, viscosity: float) -> None:
+        """No lubricant: the viscosity does not enter the dry contact."""
 
     def _outputs(self, z: np.ndarray) -> np.ndarray:
         ex, ey, rx, ry, w = z
@@ -401,16 +417,12 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         ), None
     if joint != "mixed-fem":
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
-    # dolfinx, PETSc and gmsh come with the film model: imported only when a finite-element joint is built
-    from solver.film.bearing import Bearing, FilmModel
-    from solver.film.ehd import bushing_model
+    # the film's rules were checked when the case was read (solver.case, solver.film_rules)
+    from solver.film.bushings import bushing_model
+    from solver.film.spec import FilmSpec
+    from solver.film.types import Bearing
     from solver.film.viscosity import viscosity_law
 
-    if se.elastic != "none" and oil.inlet == "max-gap":
-        raise InputError(
-            "small_end.elastic with oil.inlet = 'max-gap' is out of range (allowed with an elastic "
-            "bushing: inlet 'none', 'hole', 'axial-groove' or 'circumferential-groove')"
-        )
     bearing = Bearing(
         radius=se.pin_radius,
         width=se.width,
@@ -421,7 +433,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         **bearing_supply(oil),
     )
     surface = surface_from_case(surf)
-    elastic = bushing_model(
+    bushing = bushing_model(
         se.elastic,
         radius=se.pin_radius,
         width=se.width,
@@ -433,19 +445,20 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         nu_bushing=surf.nu_bushing,
         shank_half_angle_deg=math.degrees(se.shank_half_angle),
         modes=se.compliance_modes,
-        comm=comm,
     )
-    model = FilmModel(
-        bearing,
-        comm,
+    spec = FilmSpec(
+        bearing=bearing,
         omega_ref=engine.crank_motion.speed,
         mesh_size=solver.mesh_size,
         roughness=surface.roughness(),
         contact=surface.contact(),
         slip_regularisation=solver.slip_regularisation,
-        elastic=elastic,
+        bushing=bushing,
         piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
         cavitation=oil.cavitation,
         transport=solver.film_fraction_transport,
     )
+    from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
+
+    model = make_film(spec, comm)
     return FilmJoint(model), model

@@ -133,7 +133,7 @@ class FixedPatternLU:
             obj.destroy()
 
 
-class _ReducedShell:
+class ReducedShell:
     """The operator of a reduced Newton system of ``vinewtonrsls`` when FixedPatternLU solves it: a
     Python matrix of the reduced size with no entries. ``preonly`` applies only the preconditioner,
     which never applies its operator, so the sub-matrix PETSc would extract from the film matrix at
@@ -147,10 +147,10 @@ class _ReducedShell:
         n = isrow.getSize()
         if submat is not None and submat.getSize()[0] == n:
             return submat
-        return PETSc.Mat().createPython(((n, n), (n, n)), _ReducedShell(), comm=mat.getComm())
+        return PETSc.Mat().createPython(((n, n), (n, n)), ReducedShell(), comm=mat.getComm())
 
 
-class _FilmShell(_ReducedShell):
+class _FilmShell(ReducedShell):
     """The SNES Jacobian of the fixed-pattern VI: applies the film matrix, gives empty reduced shells."""
 
     def __init__(self, A: PETSc.Mat):
@@ -203,13 +203,15 @@ class CavitatingSolver:
         lower: float,
         options: dict | None = None,
         fixed_pattern: bool = True,
+        A: PETSc.Mat | None = None,
+        assembler=None,
     ):
-        #: replaces the dolfinx assembly of A and l when set: ``assembler(A, l_vector)`` (film.tensors)
-        self.assembler = None
+        #: replaces the dolfinx assembly of A and l when given: ``assembler(A, l_vector)`` (film.tensors)
+        self.assembler = assembler
         self.a, self.l, self.P, self.bcs = a, l, P, bcs
         V = P.function_space
         self.comm = V.mesh.comm
-        self.A = fem_petsc.create_matrix(a)
+        self.A = fem_petsc.create_matrix(a) if A is None else A
         self.rhs = fem_petsc.create_vector(l)
         self.residual_vec = fem_petsc.create_vector(l)
         self.lower = fem.Function(V)
@@ -223,6 +225,7 @@ class CavitatingSolver:
                 self.lower.x.array[dofs], bc.g.x.array[dofs] if hasattr(bc.g, "x") else lower
             )
         self.lower.x.scatter_forward()
+        self._lower_value = lower
         merged = {**DEFAULT_OPTIONS, "pc_factor_mat_solver_type": _lu_package(self.comm), **(options or {})}
         self.snes = configured_snes(self.comm, "film", merged)
         self.snes.setFunction(self._residual, self.residual_vec)
@@ -255,6 +258,17 @@ class CavitatingSolver:
                 self._shell = PETSc.Mat().createPython(sizes, _FilmShell(self.A), comm=self.comm)
                 self._shell.setUp()
                 self.snes.setJacobian(self._jacobian, self._shell)
+
+    def set_lower(self, lower: float) -> None:
+        """A new cavitation bound P_cav (and the Dirichlet values, which the caller has set)."""
+        self.lower.x.array[:] = lower
+        for bc in self.bcs:
+            dofs = bc.dof_indices()[0]
+            self.lower.x.array[dofs] = np.minimum(self.lower.x.array[dofs], bc.g.x.array[dofs])
+        self.lower.x.scatter_forward()
+        bc_values = [bc.g.x.array[bc.dof_indices()[0]] for bc in self.bcs]
+        local_zero = all(np.all(v == 0.0) for v in bc_values)
+        self._homogeneous = lower == 0.0 and self.comm.allreduce(local_zero, op=MPI.LAND)
 
     def use_reduced_lu(self) -> None:
         """PETSc's LU of each reduced matrix instead of FixedPatternLU (the reference for its tests)."""

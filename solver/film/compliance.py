@@ -89,7 +89,7 @@ from dolfinx.io import gmshio
 from ufl.core.expr import Expr
 
 from solver.errors import out_of_range
-from solver.film.mesh import _initialize_gmsh
+from solver.film.mesh import initialize_gmsh
 
 log = logging.getLogger(__name__)
 
@@ -139,14 +139,6 @@ class EyeGeometry:
     def eye_inner_radius(self) -> float:
         """Radius of the eye-bushing interface R + t [m]."""
         return self.bore_radius + self.bushing_thickness
-
-
-def winkler_coefficient(thickness: float, E: float, nu: float) -> float:
-    """Compliance of a thin layer bonded to a rigid housing, w = k p [m/Pa] (oedometric compression):
-
-    .. math:: k = t (1 + \\nu)(1 - 2 \\nu) / (E (1 - \\nu))
-    """
-    return thickness * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -437,7 +429,7 @@ def eye_mesh(
     gmsh runs on rank 0; dolfinx distributes the mesh over ``comm``.
     """
     if comm.rank == 0:
-        _initialize_gmsh()
+        initialize_gmsh()
         gmsh.model.add("eye")
         try:
             _build_gmsh_model(geometry, element_size, bore_element_size, clamp)
@@ -753,5 +745,4 @@ __all__ = [
     "eye_compliance",
     "eye_mesh",
     "reference_loads",
-    "winkler_coefficient",
 ]

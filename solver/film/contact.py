@@ -70,7 +70,8 @@ def fit_error(n: float, negative: bool = False) -> float:
 
 
 def _chebyshev_exp(n: float, Hs: Any, mod: Any, negative: bool = False) -> Any:
-    """exp(sum c_k T_k(x)), x the position of Hs in its table's range, by the Clenshaw recurrence (works for UFL)."""
+    """exp(sum c_k T_k(x)), x the position of Hs in its table's range, by the Clenshaw recurrence
+    (works for UFL)."""
     c = _chebyshev(n, negative)
     low, high = (HS_MIN, 0.0) if negative else (0.0, HS_MAX)
     x = (2.0 * Hs - low - high) / (high - low)
@@ -81,7 +82,8 @@ def _chebyshev_exp(n: float, Hs: Any, mod: Any, negative: bool = False) -> Any:
 
 
 def gt_function(n: float, Hs: Any, mod: Any = np, method: str = "exact") -> Any:
-    """F_n(Hs) for n = 5/2 or 2: tabulated quadrature (``exact``) or the common fit (``fit``, n = 5/2 only)."""
+    """F_n(Hs) for n = 5/2 or 2: tabulated quadrature (``exact``) or the common fit (``fit``, n = 5/2
+    only)."""
     if method == "fit":
         if n != 2.5:
             raise out_of_range("method", "'fit'", "'exact' for F_2 (the common fit is for F_5/2)")

@@ -35,9 +35,9 @@ same UFL expressions as the rigid film, evaluated at the cell midpoints: the ope
 engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
 systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
 block's fixed pattern; the m x m Schur system by GMRES preconditioned with the last complement formed,
-which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler) the matrix
-keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS). Either way
-the film's Jacobian with respect to the kinematics reuses the converged factorisation.
+which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler)
+the matrix keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS).
+Either way the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
 Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
 coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above include it.
@@ -45,10 +45,8 @@ coefficients (solver.film.reynolds.FilmGeometry), so the derivatives above inclu
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
-import weakref
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -60,15 +58,14 @@ import scipy.sparse
 import ufl
 from dolfinx import fem
 
-from solver.errors import FilmNotConverged, out_of_range
-from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, _ReducedShell, configured_snes
-from solver.film.compliance import EyeGeometry, eye_compliance, reference_loads, winkler_coefficient
-from solver.film.scaling import FilmScales
+from solver.errors import FilmNotConverged
+from solver.film.bushings import ModalCompliance, WinklerLayer, bushing_model
+from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, ReducedShell, configured_snes
+from solver.film.coupled_lu import DampedLU, SchurLU
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
 log = logging.getLogger(__name__)
 
-_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", (np.zeros(1),))
 
 #: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS):
 #: the reduced-space method, as the rigid film, from a start near the solution (a warm start: 3
@@ -83,48 +80,6 @@ ELASTIC_OPTIONS: dict[str, str | float | int] = {"snes_max_it": 30}
 #: reduced-space method finishes.
 FAR_OPTIONS: dict[str, str | float | int] = {"snes_type": "vinewtonssls", "snes_max_it": 200}
 FAR_TOLERANCE = 1e-6
-
-
-@dataclasses.dataclass(frozen=True)
-class WinklerLayer:
-    """A thin elastic layer (the bushing) on a rigid housing: w = k p node by node (DESIGN 7)."""
-
-    thickness: float  # m
-    E: float  # Pa
-    nu: float
-
-    def __post_init__(self) -> None:
-        if not self.thickness > 0:
-            raise out_of_range("bushing thickness", self.thickness, "> 0 m")
-        if not self.E > 0:
-            raise out_of_range("bushing modulus", self.E, "> 0 Pa")
-        if not 0 <= self.nu < 0.5:
-            raise out_of_range("bushing Poisson ratio", self.nu, "[0, 0.5)")
-
-    @property
-    def coefficient(self) -> float:
-        """k = t (1 + nu)(1 - 2 nu) / (E (1 - nu)) [m/Pa]: laterally constrained compression of the layer."""
-        return winkler_coefficient(self.thickness, self.E, self.nu)
-
-    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
-        """(Phi, g) at the film's nodes (theta [rad], z [m], lumped areas / R^2)."""
-        gains = self.coefficient * scales.pressure / scales.clearance / areas
-        return scipy.sparse.identity(len(theta), format="csr"), gains
-
-
-class ModalCompliance:
-    """The finite-element compliance of the eye (solver.film.compliance) reduced to its m dominant modes."""
-
-    def __init__(self, compliance, modes: int):
-        if not 1 <= modes <= len(compliance.areas):
-            raise out_of_range("compliance modes", modes, f"[1, {len(compliance.areas)}]")
-        self.compliance, self.modes = compliance, modes
-
-    def shapes(self, theta: np.ndarray, z: np.ndarray, areas: np.ndarray, scales: FilmScales):
-        T = self.compliance.interpolation(theta, z)
-        Psi, lam = self.compliance.modes(self.modes)
-        Phi = scipy.sparse.csr_matrix(T @ Psi)
-        return Phi, lam * scales.pressure * scales.radius**2 / scales.clearance
 
 
 class ElasticFilm:
@@ -229,11 +184,13 @@ class ElasticFilm:
         self._shell = None
         if isinstance(self.lu, SchurLU):  # the reduced-space SNES then needs the blocks only
             self._shell = PETSc.Mat().createPython(
-                ((self.N, self.N), (self.N, self.N)), _ReducedShell(), comm=self.comm
+                ((self.N, self.N), (self.N, self.N)), ReducedShell(), comm=self.comm
             )
             self._shell.setUp()
             self.snes.setJacobian(self._blocks_only, self._shell)
-        self.damped = _DampedLU(self)  # the semismooth method's: LU of its full matrix, limited step
+        self.damped = DampedLU(
+            self.comm, self._limit
+        )  # the semismooth method's: LU of its full matrix, limited step
         for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
             pc = snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
@@ -562,311 +519,12 @@ def deformation_peak(W: np.ndarray, coords: np.ndarray, clearance: float) -> tup
     return float(W[i] * clearance), math.atan2(coords[i, 1], coords[i, 0]) % (2 * math.pi)
 
 
-class SchurLU:
-    """Solver of the reduced Newton systems of the coupled VI with a few deformation modes (m << n), by
-    the Schur complement of the film block: the same iterates as an LU of the whole matrix (its Schur
-    system solved directly or by GMRES to 1e-12).
-
-    On the inactive set (pressurised dofs and every mode) the system is ``[[A, B], [C, D]] [dP; dq] =
-    [b_P; b_q]`` with A the film block (its active rows and columns replaced by identity rows, as in
-    FixedPatternLU: one fixed pattern, numeric refactorisations only), B = dR_P/dq with the active rows
-    zeroed, C = dR_q/dP with the active columns zeroed and D = dR_q/dq (m x m)::
-
-        S = D - C A^-1 B (m x m),   dq = S^-1 (b_q - C A^-1 b_P),   dP = A^-1 (b_P - B dq)
-
-    The film block is an M-matrix (its rows become small where the gap closes, but stay diagonally
-    dominant), so PETSc's LU without pivoting serves it; the dense borders, which made the whole
-    matrix need MUMPS's pivoting, only enter S. Forming S costs m back-substitutions (A^-1 B) and a
-    dense LU; S changes little from one Newton iteration, and one film solve, to the next, so it is
-    formed only when needed: the Schur system of a new factorisation is solved by GMRES preconditioned
-    with the last S formed (each iteration one back-substitution, ~5 on the engine cycle, to 1e-12),
-    and S is formed anew when that takes more than MAX_KRYLOV iterations (about one factorisation in
-    six on the engine cycle). One Newton step then costs an LU of the film matrix (~0.4 ms at 1620
-    dofs) and a few back-substitutions, against MUMPS's ~7 ms on the whole matrix with 72 modes.
-    Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
-    """
-
-    def __init__(self, film: ElasticFilm):
-        self.film = weakref.proxy(film)  # (owned by the film's SNES: no reference cycle through C)
-        op, n = film.op, film.n
-        # the film block's pattern is the operator's (A(H) of ElasticFilm.residual)
-        self._indptr, self._indices = op.indptr.astype(PETSc.IntType), op.indices.astype(PETSc.IntType)
-        self.K = PETSc.Mat().createAIJ(
-            (n, n), csr=(self._indptr, self._indices, np.zeros(len(op.indices))), comm=film.comm
-        )
-        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-        self.ksp = PETSc.KSP().create(film.comm)
-        self.ksp.setType("preonly")
-        self.ksp.getPC().setType("lu")
-        self.b, self.x = (
-            PETSc.Vec().createSeq(film.N, comm=film.comm),
-            PETSc.Vec().createSeq(film.N, comm=film.comm),
-        )
-        self._bP, self._xP = self.K.createVecs()
-        self.inactive: PETSc.IS | None = None
-        self.local: np.ndarray | None = None
-        self.limit = None
-        self.failed = False
-        self._package = "petsc"  # of the film block's current factorisation
-        self.S = None  # LU of the last Schur complement formed (exact for its factorisation, then a preconditioner)
-        self._exact = False
-        self.n_formed = self.n_krylov = 0  # Schur complements formed, Krylov iterations (statistics)
-
-    #: Krylov iterations on the Schur system before its complement is formed anew (m back-substitutions)
-    MAX_KRYLOV = 6
-    #: relative residual of the Schur system at which the Krylov iteration stops (the direct solve's level)
-    KRYLOV_TOLERANCE = 1e-12
-
-    def factor(self, inactive: PETSc.IS) -> None:
-        """Factorise for this inactive set (indices into (P, q)); the blocks are ElasticFilm's (the
-        borders dense: SchurLU serves the modal film). Only the film block is factorised here; the Schur
-        complement is formed (m back-substitutions) the first time, after a failure, when the last one
-        no longer preconditions the Schur system well (``_schur_solve``) and for the sensitivities
-        (``solve_full``)."""
-        film, n = self.film, self.film.n
-        A, B, C, D = film.blocks
-        keep = np.zeros(film.N, dtype=bool)
-        keep[inactive.getIndices()] = True
-        active = np.flatnonzero(~keep[:n]).astype(PETSc.IntType)
-        self.K.setValuesCSR(self._indptr, self._indices, A.data)
-        self.K.assemble()
-        self.K.zeroRowsColumns(active, diag=1.0)
-        self._factor_film_block()
-        self.B = B.copy()
-        self.B[active] = 0.0
-        self.C = C.copy()
-        self.C[:, active] = 0.0
-        self.D = D
-        self._exact = False  # whether self.S is this factorisation's Schur complement
-        if self.S is None or not np.all(np.isfinite(self.S[0])):  # (a failed one preconditions nothing)
-            self._form_schur()
-        self.inactive = inactive
-        self.local = inactive.getIndices()
-
-    def _form_schur(self) -> None:
-        """S = D - C A^-1 B of the current factorisation (m back-substitutions, one dense LU)."""
-        n, m = self.film.n, self.film.m
-        rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(self.B), comm=self.film.comm)
-        X = PETSc.Mat().createDense((n, m), comm=self.film.comm)
-        X.setUp()
-        self.ksp.getPC().getFactorMatrix().matSolve(rhs, X)
-        X_array = X.getDenseArray()
-        S = self.D - self.C @ X_array
-        rhs.destroy()
-        X.destroy()
-        self.S = scipy.linalg.lu_factor(S, check_finite=False)
-        self._exact = True
-        self.n_formed += 1
-        if not (np.all(np.isfinite(X_array)) and np.all(np.isfinite(self.S[0]))):
-            self.failed = True
-
-    def _film_solve(self, b: np.ndarray) -> np.ndarray:
-        """A^-1 b with the film block's factorisation (one back-substitution)."""
-        self._bP.setArray(b)
-        self.ksp.solve(self._bP, self._xP)
-        if self.ksp.getConvergedReason() < 0:
-            self.failed = True
-        return self._xP.getArray(readonly=True).copy()
-
-    def _schur_solve(self, r: np.ndarray) -> np.ndarray:
-        """S^-1 r for this factorisation's S = D - C A^-1 B: directly with its own complement, else by
-        GMRES preconditioned (on the right) with the last complement formed, whose Schur system differs
-        from this one by the change of the film block since (a few iterations, one back-substitution
-        each; the basis orthogonalised by classical Gram-Schmidt applied twice, the least-squares
-        problem by Givens rotations); when that does not reach KRYLOV_TOLERANCE in MAX_KRYLOV
-        iterations the complement is formed anew and used directly."""
-        if self._exact:
-            return self._schur_lu_solve(r)
-        norm = float(np.linalg.norm(r))
-        if norm == 0.0:
-            return np.zeros_like(r)
-        k_max = self.MAX_KRYLOV
-        basis = np.zeros((k_max + 1, r.size))
-        triangle = np.zeros((k_max, k_max))  # the Hessenberg matrix, rotated to upper triangular
-        cosines, sines = np.zeros(k_max), np.zeros(k_max)
-        rhs = np.zeros(k_max + 1)  # the rotated right-hand side norm e_1: |rhs[k + 1]| is the residual
-        rhs[0] = norm
-        basis[0] = r / norm
-        for k in range(k_max):
-            w = self._schur_apply(self._schur_lu_solve(basis[k]))
-            if self.failed or not np.all(np.isfinite(w)):  # a failed back-substitution: the step is NaN,
-                self.failed = True  # the SNES fails and the film solve with it (FilmNotConverged)
-                return np.full_like(r, np.nan)
-            V = basis[: k + 1]
-            h = V @ w
-            w = w - h @ V
-            correction = V @ w
-            w -= correction @ V
-            h += correction
-            h_next = float(np.linalg.norm(w))
-            for i in range(k):  # the earlier rotations
-                h[i], h[i + 1] = (
-                    cosines[i] * h[i] + sines[i] * h[i + 1],
-                    -sines[i] * h[i] + cosines[i] * h[i + 1],
-                )
-            radius = math.hypot(h[k], h_next)
-            cosines[k], sines[k] = (h[k] / radius, h_next / radius) if radius > 0.0 else (1.0, 0.0)
-            h[k] = radius
-            triangle[: k + 1, k] = h
-            rhs[k + 1] = -sines[k] * rhs[k]
-            rhs[k] *= cosines[k]
-            if abs(rhs[k + 1]) <= self.KRYLOV_TOLERANCE * norm or h_next == 0.0:
-                self.n_krylov += k + 1
-                y = scipy.linalg.solve_triangular(
-                    triangle[: k + 1, : k + 1], rhs[: k + 1], check_finite=False
-                )
-                return self._schur_lu_solve(y @ basis[: k + 1])
-            basis[k + 1] = w / h_next
-        self.n_krylov += k_max
-        self._form_schur()
-        return self._schur_lu_solve(r)
-
-    def _schur_apply(self, v: np.ndarray) -> np.ndarray:
-        """S v = D v - C A^-1 B v (one back-substitution)."""
-        return self.D @ v - self.C @ self._film_solve(self.B @ v)
-
-    def _schur_lu_solve(self, v: np.ndarray) -> np.ndarray:
-        """The last complement formed, solved for v (LAPACK's getrs on its LU)."""
-        x, _ = _getrs(*self.S, v)  # (its info is non-zero only for invalid arguments)
-        return x
-
-    def _factor_film_block(self) -> None:
-        """LU of the film block: PETSc's own (numeric refactorisation of the fixed pattern); at a zero
-        pivot (an iterate far from the solution can close the gap so far that a row vanishes) MUMPS,
-        which pivots, for this factorisation, and PETSc's own again for the next one."""
-        if self.failed or self._package != "petsc":
-            self._use("petsc")
-            self.failed = False
-        self.ksp.setOperators(self.K)
-        self.ksp.setUp()
-        self._bP.set(0.0)  # a zero pivot shows only in a solve's reason
-        self.ksp.solve(self._bP, self._xP)
-        if self.ksp.getConvergedReason() < 0:
-            self._use("mumps")
-            self.ksp.setOperators(self.K)
-            self.ksp.setUp()
-
-    def _use(self, package: str) -> None:
-        """A new LU of the film block by ``package`` (analysis included at the next set-up)."""
-        self.ksp.reset()
-        self.ksp.setType("preonly")
-        self.ksp.getPC().setType("lu")
-        self.ksp.getPC().setFactorSolverType(package)
-        self._package = package
-
-    def _solve(self, b: np.ndarray) -> np.ndarray:
-        n = self.film.n
-        y0 = self._film_solve(b[:n])
-        dq = self._schur_solve(b[n:] - self.C @ y0)
-        return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
-
-    def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        """x = K^-1 b (b must vanish on the active set of the factorisation). For the sensitivities:
-        several right-hand sides, of another kind than Newton's, so the complement is formed first
-        (GMRES from the last one took more iterations on them than forming it costs)."""
-        if not self._exact:
-            self._form_schur()
-        x.setArray(self._solve(b.getArray(readonly=True)))
-        if self.failed or not np.all(np.isfinite(x.getArray(readonly=True))):
-            self.failed = True
-            raise FilmNotConverged("elastic film sensitivities: the factorisation failed", -1, 0)
-
-    # -- PCShell interface ----------------------------------------------------------------------------
-    def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
-        self.factor(self.film.snes.getVIInactiveSet())
-
-    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
-        b = np.zeros(self.film.N)
-        b[self.local] = x.getArray(readonly=True)
-        step = self._solve(b)
-        if self.failed or not np.all(np.isfinite(step)):
-            self.failed = True
-            y.set(float("nan"))
-            return
-        factor = 1.0 if self.limit is None else self.limit(step)
-        y.setArray(factor * step[self.local])
-
-    def destroy(self, pc=None) -> None:
-        for obj in (self.ksp, self.K, self.b, self.x, self._bP, self._xP):
-            obj.destroy()
-
-
-class _DampedLU:
-    """Python PC of the coupled VI: an LU of the semismooth Newton matrix (its pattern is fixed, so
-    PETSc refactorises it numerically only) and the step scaled by ``ElasticFilm._limit``."""
-
-    def __init__(self, film: ElasticFilm):
-        self.film = weakref.proxy(film)  # the PC is owned by the film's SNES: no reference cycle through C
-        self.ksp = PETSc.KSP().create(film.comm)
-        self.ksp.setType("preonly")
-        self.ksp.getPC().setType("lu")
-        self.ksp.getPC().setFactorSolverType("mumps")
-        self.failed = False
-
-    def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
-        A, _ = pc.getOperators()
-        if self.failed:  # as FixedPatternLU.factor: MUMPS would keep the failed factorisation's error
-            self.ksp.reset()
-            self.failed = False
-        self.ksp.setOperators(A)
-        self.ksp.setUp()
-
-    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
-        self.ksp.solve(x, y)
-        if self.ksp.getConvergedReason() < 0:
-            self.failed = True
-            y.set(float("nan"))
-            return
-        y.scale(self.film._limit(y.getArray(readonly=True)))
-
-    def destroy(self, pc=None) -> None:
-        self.ksp.destroy()
-
-
-def bushing_model(
-    kind: str,
-    *,
-    radius: float,
-    width: float,
-    bushing_thickness: float,
-    eye_outer_radius: float,
-    E_eye: float,
-    nu_eye: float,
-    E_bushing: float,
-    nu_bushing: float,
-    shank_half_angle_deg: float,
-    modes: int,
-    comm: MPI.Comm,
-    shank_angle_deg: float = 180.0,
-):
-    """The bushing's compliance for ``FilmModel(elastic=...)``: None (rigid), a WinklerLayer, or the
-    finite-element eye (solver.film.compliance, from its disk cache when built before) reduced to
-    ``modes`` modes, clamped around ``shank_angle_deg`` (the engine: 180, the shank opposite the top
-    of the eye in the rod frame)."""
-    if kind == "none":
-        return None
-    if kind == "winkler":
-        return WinklerLayer(thickness=bushing_thickness, E=E_bushing, nu=nu_bushing)
-    if kind != "fe":
-        raise out_of_range("elastic", repr(kind), "'none', 'winkler' or 'fe'")
-    geometry = EyeGeometry(
-        bore_radius=radius,
-        width=width,
-        bushing_thickness=bushing_thickness,
-        eye_outer_radius=eye_outer_radius,
-        E_eye=E_eye,
-        nu_eye=nu_eye,
-        E_bushing=E_bushing,
-        nu_bushing=nu_bushing,
-        shank_angle_deg=shank_angle_deg,
-        shank_half_angle_deg=shank_half_angle_deg,
-    )
-    compliance = eye_compliance(geometry, comm=comm)
-    loads = reference_loads(compliance)
-    errors = compliance.truncation_error(modes, np.column_stack(list(loads.values())))
-    log.info(
-        "eye compliance with %d modes: truncation error %s",
-        modes,
-        ", ".join(f"{name} {error:.2%}" for name, error in zip(loads, errors)),
-    )
-    return ModalCompliance(compliance, modes)
+__all__ = [
+    "DampedLU",
+    "ElasticFilm",
+    "ModalCompliance",
+    "SchurLU",
+    "WinklerLayer",
+    "bushing_model",
+    "deformation_peak",
+]

@@ -11,7 +11,8 @@ h_T with Kuzmin's upwinding (limited edge by edge when ``MidpointJFO.limited`` i
 TransportLimiter, from the last committed film fraction), s the storage in its rate form:
 m (theta - theta_ref) / dT + mdot theta, m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT
 phi_i), with the deformation's rate inside dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by
-BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.bearing). Every coefficient is evaluated at the cell midpoints
+BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.history). Every coefficient is
+evaluated at the cell midpoints
 (the operator's rule, solver.film.tensors), so the matrices are sums over cells of fixed local
 matrices times these values, and their derivatives with respect to the midpoint gap H_K are as
 cheap. The exact Jacobian::
@@ -41,7 +42,8 @@ from dolfinx import fem
 
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import configured_snes
-from solver.film.ehd import ElasticFilm, _DampedLU
+from solver.film.coupled_lu import DampedLU
+from solver.film.ehd import ElasticFilm
 from solver.film.jfo import JFOSolution, semismooth_reason, upwind_pick
 from solver.film.tensors import MIDPOINT
 
@@ -218,7 +220,7 @@ class ElasticJFOFilm(ElasticFilm):
         self.jfo_snes.setFunction(self._residual, self.r)
         self.jfo_snes.setJacobian(self._jfo_jacobian, self.A)
         self.jfo_snes.setConvergenceTest(self._converged)
-        self.jfo_lu = _DampedLU(self)
+        self.jfo_lu = DampedLU(self.comm, self._limit)
         pc = self.jfo_snes.getKSP().getPC()
         pc.setType(PETSc.PC.Type.PYTHON)
         pc.setPythonContext(self.jfo_lu)
@@ -399,7 +401,7 @@ class ElasticJFOFilm(ElasticFilm):
 
 
 class _Operators:
-    """What _DampedLU.setUp asks of a PC: its operators."""
+    """What DampedLU.setUp asks of a PC: its operators."""
 
     def __init__(self, A: PETSc.Mat):
         self.A = A

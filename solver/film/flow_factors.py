@@ -196,7 +196,8 @@ def shear_stress_phi_f(Hs: Any, mod: Any = np) -> Any:
     """Phi_f of Patir & Cheng 1979 (mean of h/h_T over the polynomial gap distribution), z = Hs/3.
 
     Hs > 3: ``35/32 z [(1 - z^2)^3 ln((z + 1)/(z - 1)) + z/15 (66 + z^2 (30 z^2 - 80))]``;
-    Hs <= 3: ``35/32 z [(1 - z^2)^3 ln((z + 1)/eps*) + (-55 + z(132 + z(345 + z(-160 + z(-405 + z(60 + 147 z))))))/60]``
+    Hs <= 3: ``35/32 z [(1 - z^2)^3 ln((z + 1)/eps*)
+    + (-55 + z(132 + z(345 + z(-160 + z(-405 + z(60 + 147 z))))))/60]``
     with eps* = 1/300. For Hs > 30 the closed form loses digits to cancellation, and its series
     ``1 + m2/Hs^2 + m4/Hs^4`` (m2 = 1, m4 = 27/11 are moments of the gap distribution) is used
     instead (truncation < 1e-8 there).

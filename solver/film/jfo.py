@@ -222,6 +222,15 @@ class JFOSolver:
         self._scale = 1.0  # the flux scale of the current solve (solve)
         self._Ts: PETSc.Mat | None = None  # T with the storage term of the current solve
 
+    def set_prescribed(self, prescribed: dict[str, tuple[np.ndarray, float]]) -> None:
+        """New values of u on the prescribed dofs (the same dofs): a new p_ref changes a supply's."""
+        self.prescribed = {
+            name: (np.asarray(dofs, dtype=np.int32), float(value))
+            for name, (dofs, value) in prescribed.items()
+        }
+        for dofs, value in self.prescribed.values():
+            self._bc_values[dofs[dofs < self.n_owned]] = value
+
     # -- assembly -------------------------------------------------------------------------------
     def update(self, limited: LimitedTransport | None = None) -> None:
         """Assemble K, T's Couette part and the nodal gap volumes m (call after H, U or D change);

@@ -60,9 +60,11 @@ class MidpointOperator:
         bcs: the Dirichlet conditions of the film.
         integrals: UFL integrands independent of P, integrated by the same midpoint rule in the same
             evaluation (``self.integrals`` after each ``assemble``): the Couette friction torques.
+        fast: ``fast(operator)`` -> a callable that evaluates ``expression`` in numpy
+            (RigidMidpointCoefficients), or None: the compiled expression.
     """
 
-    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list, integrals=()):
+    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, coefficients, bcs: list, integrals=(), fast=None):
         dofs, X, J, G, det = _cell_geometry(V, "MidpointOperator")
         n_cells = len(dofs)
         cells = np.arange(n_cells, dtype=np.int32)
@@ -101,8 +103,6 @@ class MidpointOperator:
         #: what ``evaluate`` needs at the midpoints (UFL): k_theta, k_z, f, then the integrands
         self.coefficients = list(coefficients) + self.integrands
         self.expression = fem.Expression(ufl.as_vector(self.coefficients), MIDPOINT)
-        #: evaluates what ``expression`` does in numpy when set (RigidMidpointCoefficients)
-        self.fast = None
         self.weight = weight  # |K|: the midpoint rule's weight of each cell
         self.nodal_areas = self.T_f @ np.ones(n_cells)  # lumped: a third of each cell's area to its vertices
         # per cell: its dofs, the local matrices per unit coefficient and the basis functions'
@@ -128,6 +128,15 @@ class MidpointOperator:
             index = bc.dof_indices()[0]
             self.bc_values[index] = bc.g.x.array[index]
         self.lift = bool(np.any(self.bc_values[bc_dofs] != 0.0))
+        #: evaluates what ``expression`` does in numpy when set (RigidMidpointCoefficients)
+        self.fast = None if fast is None else fast(self)
+
+    def set_bc_values(self, bcs: list) -> None:
+        """The Dirichlet values anew (their dofs unchanged): a new p_ref changes a supply's P."""
+        for bc in bcs:
+            index = bc.dof_indices()[0]
+            self.bc_values[index] = bc.g.x.array[index]
+        self.lift = bool(np.any(self.bc_values[self.bc_dofs] != 0.0))
 
     def assemble(self, A: PETSc.Mat, rhs: PETSc.Vec) -> None:
         """A and the source (lifted, with -g on the Dirichlet rows) for the current constants."""

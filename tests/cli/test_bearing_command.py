@@ -89,8 +89,10 @@ def _replace(args, flag, value):
                 "1.5e-3",
                 "--eye-outer-radius",
                 "0.017",
+                "--inlet",
+                "max-gap",
             ],
-            "--inlet",
+            "--inlet max-gap) with small_end.elastic = 'fe' (--elastic fe)",
         ),
         (GOOD + ["--eccentricity", "0.5", "--pressure-viscosity", "1"], "--pressure-viscosity"),
         (GOOD + ["--eccentricity", "0.5", "--groove-angle", "90", "--groove-arc", "30"], "--groove-length"),
@@ -420,3 +422,29 @@ def test_jfo_cavitation_in_the_bearing_command():
     assert reynolds["side_flow_m3_per_s"] > 1.01 * reynolds["supply_flow_m3_per_s"]
     proc = run_cli("bearing", *args, "--cavitation", "jfo", "--degree", "2")
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "serial P1 film" in proc.stderr
+
+
+@pytest.mark.parametrize(
+    "extra, inlet",
+    [
+        ([], "max-gap"),
+        (["--elastic", "fe", "--bushing-thickness", "1.5e-3", "--eye-outer-radius", "0.017"], "none"),
+        (["--circumferential-groove", "0.003"], "none"),
+        (["--elastic", "winkler", "--bushing-thickness", "1.5e-3"], "max-gap"),
+    ],
+    ids=["rigid", "fe", "supply", "winkler"],
+)
+def test_the_default_inlet_is_the_one_the_model_allows(extra, inlet):
+    """Without --inlet: max-gap where the film allows it, none where it does not (the FE eye, a supply);
+    the film's rules then pass (the spec is checked before any mesh or compliance is built)."""
+    import argparse
+
+    from solver.cli.bearing import add_arguments, resolve_supply
+    from solver.film_rules import check_film
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(GOOD + ["--eccentricity", "0.5", *extra])
+    resolve_supply(args)
+    assert args.inlet == inlet
+    check_film(bushing=args.elastic, inlet=args.inlet, supply=args.supply != "none", quasi_static=True)

@@ -38,3 +38,40 @@ def central_differences(model, base, steps, time_s=None) -> np.ndarray:
 def film_differences():
     """``central_differences(model, base, steps, time_s=None)`` as a fixture."""
     return central_differences
+
+
+#: the film kinds of the parametrised fixture: (bearing keywords, FilmSpec keywords)
+def _kinds():
+    from solver.film.bushings import WinklerLayer
+    from solver.film.surface import Surface
+
+    rough = Surface(sigma_journal=0.3e-6, sigma_bushing=0.4e-6)
+    winkler = WinklerLayer(thickness=1.5e-3, E=115e9, nu=0.33)
+    flooded = {"inlet": "none", "cavitation_pressure": -0.5e5}
+    return {
+        "rigid-smooth": ({"inlet": "max-gap"}, {"quasi_static": True}),
+        "rigid-rough": ({"inlet": "none"}, {"roughness": rough.roughness(), "contact": rough.contact()}),
+        "winkler": ({"inlet": "none"}, {"bushing": winkler}),
+        "jfo": (flooded, {"cavitation": "jfo"}),
+        "elastic-jfo": (flooded, {"cavitation": "jfo", "bushing": winkler}),
+    }
+
+
+FILM_KINDS = ["rigid-smooth", "rigid-rough", "winkler", "jfo", "elastic-jfo"]
+
+
+@pytest.fixture(params=FILM_KINDS)
+def film(request):
+    """One film of each kind (the factory's choices), on a coarse mesh of a B/D = 1 bearing (R 10 mm,
+    c 10 um, mu 0.01 Pa s, omega_ref 200 rad/s); closed after the test."""
+    from mpi4py import MPI
+
+    from solver.film.factory import make_film
+    from solver.film.spec import FilmSpec
+    from solver.film.types import Bearing
+
+    bearing_keys, spec_keys = _kinds()[request.param]
+    bearing = Bearing(radius=0.01, width=0.02, clearance=10e-6, viscosity=0.01, **bearing_keys)
+    spec = FilmSpec(bearing=bearing, omega_ref=200.0, mesh_size=0.12, **spec_keys)
+    with make_film(spec, MPI.COMM_SELF) as model:
+        yield model

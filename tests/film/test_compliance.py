@@ -21,6 +21,7 @@ import ufl
 from dolfinx import fem, geometry
 
 from solver.film import compliance as compliance_module
+from solver.film.bushings import winkler_coefficient
 from solver.film.compliance import (
     DEFAULT_MODES,
     TAGS,
@@ -30,7 +31,6 @@ from solver.film.compliance import (
     cache_key,
     eye_compliance,
     reference_loads,
-    winkler_coefficient,
 )
 
 R = 0.01  # m, bore radius of all test eyes

@@ -1,4 +1,5 @@
-"""The elastic bushing coupled to the film (solver.film.ehd): exact Jacobians, the Winkler law, the rigid limit."""
+"""The elastic bushing coupled to the film (solver.film.ehd): exact Jacobians, the Winkler law, the rigid
+limit."""
 
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def test_coupled_jacobian_matches_finite_differences_of_the_residual():
         bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.25, elastic=WinklerLayer(**BRONZE), **_rough()
     ) as model:
         model.solve(MIXED)
-        film = model._ehd
+        film = model.solver.ehd
         rng = np.random.default_rng(1)
         x = film.x.getArray().copy()  # the solution
         x[: film.n] += 0.01 * rng.random(film.n) * np.max(x[: film.n])
@@ -359,8 +360,8 @@ def test_fe_deformation_is_the_compliance_applied_to_the_nodal_forces(coarse_eye
         model.solve(Kinematics((0.0, -0.9 * C), (0.0, -0.1 * C * OMEGA), OMEGA, 0.0))
         fields = model.fields_si()
         p, w = fields["pressure"].x.array, fields["deformation"].x.array
-        x = model._owned_coords
-        areas = model._operator.T_f @ np.ones(len(model._operator.cells)) * R**2
+        x = model.space.owned_coords
+        areas = model.forms.operator.T_f @ np.ones(len(model.forms.operator.cells)) * R**2
     T = coarse_eye.interpolation(np.arctan2(x[:, 1], x[:, 0]), x[:, 2] * R)
     expected = T @ (coarse_eye.matrix @ (T.T @ (areas * p)))
     assert np.max(np.abs(w)) > 0.05 * C
@@ -431,23 +432,23 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
             elastic=ModalCompliance(coarse_eye, 24),
             **_rough(),
         ) as model:
-            assert isinstance(model._ehd.lu, SchurLU)
+            assert isinstance(model.solver.ehd.lu, SchurLU)
             if whole:
-                model._ehd.use_whole_lu()
+                model.solver.ehd.use_whole_lu()
             out = []
             for k, state in enumerate(states):
                 if k == 2 and not whole:  # a failed complement (NaN) is formed anew, not used to precondition
-                    lu = model._ehd.lu
+                    lu = model.solver.ehd.lu
                     lu.S = (np.full_like(lu.S[0], np.nan), lu.S[1])
                 result = model.solve(state)
-                out.append((result.iterations, model._ehd.state(), model.jacobian().matrix))
+                out.append((result.iterations, model.solver.ehd.state(), model.jacobian().matrix))
             runs.append(out)
             if not whole:
-                lu = model._ehd.lu
+                lu = model.solver.ehd.lu
                 assert lu.n_formed >= 2 and lu.n_krylov > 0, (lu.n_formed, lu.n_krylov)
             if not whole:  # the modal blocks as dense arrays against the sparse products (1e-12), at the
                 film = (
-                    model._ehd
+                    model.solver.ehd
                 )  # solution's pressure with the deformation removed: the rigid gap, in contact
                 film.residual(np.concatenate([film.state()[: film.n], np.zeros(film.m)]))
                 dense = film.jacobian_matrix().toarray()

@@ -78,9 +78,9 @@ DEEP = Kinematics(
 def test_tensors_equal_the_assembly_of_the_form(rough, hole, state):
     """(eps 0.995: h/sigma down to 0.16, below the flow factors' fits, where they are held)"""
     with _model(rough, hole) as model:
-        assert model.solver.assembler is not None  # serial P1: the tensor path is the default
+        assert model.solver.vi.assembler is not None  # serial P1: the tensor path is the default
         model.set_kinematics(state)
-        solver = model.solver
+        solver = model.solver.vi
         solver.update()
         A_tensor, l_tensor = solver.A.copy(), solver.rhs.copy()
         solver.assembler, assembler = None, solver.assembler  # dolfinx's assembly of the UFL form
@@ -113,9 +113,9 @@ def test_fixed_pattern_lu_gives_the_reduced_iterates(rough):
     for fixed in (True, False):
         with _model(rough, False, options=None) as model:
             if not fixed:  # PETSc's reduced LU, as before
-                model.solver.use_reduced_lu()
+                model.solver.vi.use_reduced_lu()
             else:  # FixedPatternLU, and the SNES Jacobian a shell whose reduced matrices are not extracted
-                assert model.solver.snes.getJacobian()[0].getType() == "python"
+                assert model.solver.vi.snes.getJacobian()[0].getType() == "python"
             runs = []
             for state in states:
                 result = model.solve(state)
@@ -135,17 +135,19 @@ def test_couette_torques_integrated_with_the_operator(rough):
     3 < h/sigma <= 30 cancels terms of up to ~2e5 (z = 10: (1 - z^2)^3 ln((z + 1)/(z - 1)) against
     z/15 (66 + ...)) to a result of ~1, so two evaluations in another order of operations differ by
     ~2e-11 relative (measured 1.9e-12 on the integral)."""
-    from solver.film.bearing import QuadratureFunctionals
+    from solver.film.functionals import QuadratureFunctionals
 
     with _model(rough, False) as model:
         model.set_kinematics(STATE)
-        model.solver.update()
-        names = model._operator_integral_names
+        model.solver.vi.update()
+        names = model.forms.operator_integral_names
         assert set(names) == {"viscous_couette_journal", "viscous_couette_bushing"}
-        reference = QuadratureFunctionals(model.mesh, [model._midpoint_integrands[n] for n in names], 1)()
-        assert model._operator.fast is not None  # the numpy evaluation (rigid film, serial P1)
+        reference = QuadratureFunctionals(
+            model.mesh, [model.forms.midpoint_integrands[n] for n in names], 1
+        )()
+        assert model.forms.operator.fast is not None  # the numpy evaluation (rigid film, serial P1)
         tolerance = 1e-10 if rough else 1e-12
-        assert np.abs(model._operator.integrals - reference).max() <= tolerance * np.abs(reference).max()
+        assert np.abs(model.forms.operator.integrals - reference).max() <= tolerance * np.abs(reference).max()
         assert np.abs(reference).min() > 0
 
 
@@ -160,7 +162,7 @@ def test_warm_start_turned_with_a_jumping_frame_saves_vi_iterations():
         bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="max-gap")
         with FilmModel(bearing, MPI.COMM_SELF, omega_ref=OMEGA) as model:
             if not turn:
-                model._turn = None
+                model.TURN_THRESHOLD = math.inf  # never turn the warm start
             counts[turn], loads[turn] = 0, []
             for k in range(41):
                 s, a = 0.6 - 0.03 * k, 0.4
@@ -188,15 +190,17 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
     dolfinx (solver.film.bearing.QuadratureFunctionals, the rule the forms use) at three solved states:
     equal to 1e-12 of its size, and not zero. With an elastic (Winkler) bushing the gap carries the
     deformation, which is not small there, and the flow's floor of the gap."""
-    from solver.film.bearing import _PRESSURE_TORQUES, QuadratureFunctionals
     from solver.film.ehd import WinklerLayer
+    from solver.film.functionals import QuadratureFunctionals
     from solver.film.reynolds import shear_traction_integrands
 
     bushing = WinklerLayer(thickness=1.5e-3, E=5e9, nu=0.33) if elastic else None  # a polymer layer: W ~ 0.1
     with _model(rough, False, elastic=bushing) as model:
-        torque = model._pressure_torque
+        torque = model.forms.pressure_torque
         assert torque is not None  # serial, P1: the default
-        _, _, pressure_part = shear_traction_integrands(model.pressure, model.geometry, model.roughness)
+        _, _, pressure_part = shear_traction_integrands(
+            model.pressure, model.space.geometry, model.space.roughness
+        )
         reference = QuadratureFunctionals(model.mesh, [pressure_part], torque.DEGREE)
         for e, angle, rate in [(0.3, 0.5, 0.0), (0.93, 2.0, 0.4), (0.98, 4.5, -1.0)]:
             state = Kinematics(
@@ -204,7 +208,7 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
             )
             model.solve(state)
             n = torque.B.shape[1]
-            eps = float(model.params.eps_x.value), float(model.params.eps_y.value)
+            eps = float(model.space.params.eps_x.value), float(model.space.params.eps_y.value)
             W = model.W.x.array[:n] if elastic else None
             if elastic:
                 assert np.max(np.abs(W)) > 0.01
@@ -212,12 +216,12 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
             exact = float(reference()[0])
             assert abs(exact) > 1e-3
             assert abs(fast - exact) <= 1e-12 * abs(exact), (e, fast, exact)
-            values = model._functionals()  # the solve's functionals take it
+            values = model.forms.values(model.forms.contact_cells())  # the solve's functionals take it
             whole = model.mesh_spec.multiplicity * model.scales.shear_torque
-            for name in _PRESSURE_TORQUES:
+            for name in ("viscous_pressure_journal", "viscous_pressure_bushing"):
                 assert values[name] == pytest.approx(whole * fast, rel=1e-14)
         if elastic:  # a deformation that closes the gap below the flow's floor over part of the film
-            h0, coords = torque.flow_floor, model._owned_coords
+            h0, coords = torque.flow_floor, model.space.owned_coords
             rigid = 1.0 - coords[:, :2] @ np.array(eps)
             gap = h0 * (0.2 + 2.0 * np.random.default_rng(3).random(n))
             model.W.x.array[:n] = gap - rigid
@@ -235,9 +239,9 @@ def test_contact_integrals_on_the_contact_cells_equal_those_over_the_film(state)
     few (the point of keeping them)."""
     with _model(True, False) as model:
         model.solve(state)
-        cells = model._contact_cells()
-        assert 0 < len(cells) < 0.5 * len(model._owned_cells)
-        for _, functionals in model._scalars:
+        cells = model.forms.contact_cells()
+        assert 0 < len(cells) < 0.5 * len(model.space.owned_cells)
+        for _, functionals in model.forms.scalars:
             if functionals.contact_only:
                 kept, everywhere = functionals(cells), functionals(None)
                 assert np.abs(everywhere).max() > 0

@@ -26,7 +26,9 @@ from scipy.integrate import quad
 
 from solver.errors import InputError
 from solver.film.bearing import Bearing, FilmModel, Kinematics
+from solver.film.factory import make_film
 from solver.film.flow_factors import PatirCheng, contact_factor, mean_gap
+from solver.film.spec import FilmSpec
 
 pytestmark = pytest.mark.serial
 
@@ -136,14 +138,14 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
         for m in (model, upwind):
             m.solve(kin0, 0.0)
             m.commit_history(m.history_state(), 0.0)
-        real, broken = model._jfo.solve, [True]
+        real, broken = model.solver.jfo.solve, [True]
 
         def failing(*args, **kwargs):  # every limited solve fails while ``broken``
-            if broken[0] and model._jfo_derivatives.limited is not None:
+            if broken[0] and model.solver.transport.derivatives.limited is not None:
                 raise FilmNotConverged("forced", -5, 1)
             return real(*args, **kwargs)
 
-        model._jfo.solve = failing
+        model.solver.jfo.solve = failing
         first = _outputs(model.solve(states[0], 5e-5))
         assert model.stats.transport_fallbacks == 1
         assert np.max(np.abs(first - _outputs(upwind.solve(states[0], 5e-5)))) <= 1e-10 * np.max(
@@ -160,7 +162,7 @@ def test_limited_transport_falls_back_to_upwind_for_the_step():
             _outputs(m.solve(Kinematics((5.7e-6, 3.4e-6), (0.012, 0.004), OMEGA, 30.0), 1e-4))
             for m in (model, upwind)
         ]
-        assert model._jfo_derivatives.limited is not None and model.stats.transport_fallbacks == 1
+        assert model.solver.transport.derivatives.limited is not None and model.stats.transport_fallbacks == 1
         assert np.max(np.abs(later[0] - later[1])) > 1e-4 * np.max(np.abs(later[1]))
 
 
@@ -220,22 +222,25 @@ def test_uncommitted_solve_leaves_history_unchanged():
 
 
 def test_jfo_refuses_what_it_does_not_support():
-    """One line naming the allowed choices: degree 2; edges at the cavitation pressure without a supply
-    (no oil can enter but along the edges' first element row: the steady load at eps 0.9 falls by 16 %
-    from 0.1 to 0.025 R, against about 1 % with the edges flooded 0.9 bar above p_cav); the max-gap
-    inlet with a history."""
+    """One line naming the case key and the flag (solver.film_rules), before any mesh: degree 2; edges at
+    the cavitation pressure without a supply (no oil can enter but along the edges' first element row:
+    the steady load at eps 0.9 falls by 16 % from 0.1 to 0.025 R, against about 1 % with the edges
+    flooded 0.9 bar above p_cav); the max-gap inlet with a history, unless quasi-static (whose film
+    then commits no history)."""
     b = Bearing(radius=R, width=B, clearance=C, viscosity=MU)
     with pytest.raises(InputError, match="serial P1 film"):
-        FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, degree=2, cavitation="jfo")
-    with pytest.raises(InputError, match="'reynolds' or 'jfo'"):
-        FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, cavitation="elrod")
+        FilmSpec(bearing=b, omega_ref=OMEGA, degree=2, cavitation="jfo", quasi_static=True)
+    with pytest.raises(InputError, match=r"^oil.cavitation = 'elrod' \(--cavitation elrod\) is out of range"):
+        FilmSpec(bearing=b, omega_ref=OMEGA, cavitation="elrod")
     sealed = Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="none")  # p_cav = 0, no supply
-    with pytest.raises(InputError, match="cavitation_pressure = 0 is out of range"):
-        FilmModel(sealed, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, cavitation="jfo")
-    b = Bearing(radius=R, width=B, clearance=C, viscosity=MU, inlet="max-gap")
-    with FilmModel(b, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.2, cavitation="jfo") as model:
+    with pytest.raises(InputError, match=r"^oil.cavitation_pressure_bar = 0 \(--cavitation-pressure 0 Pa\)"):
+        FilmSpec(bearing=sealed, omega_ref=OMEGA, cavitation="jfo")
+    with pytest.raises(InputError, match="max-gap frame"):
+        FilmSpec(bearing=b, omega_ref=OMEGA, cavitation="jfo")
+    spec = FilmSpec(bearing=b, omega_ref=OMEGA, mesh_size=0.2, cavitation="jfo", quasi_static=True)
+    with make_film(spec, MPI.COMM_SELF) as model:
         model.solve(Kinematics((5e-6, 0.0), (0.0, 0.0), OMEGA, 0.0))  # quasi-static: allowed
-        with pytest.raises(InputError, match="inlet 'none'"):
+        with pytest.raises(InputError, match="quasi-static film commits no history"):
             model.commit_history(model.history_state(), 0.0)
 
 

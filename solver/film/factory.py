@@ -1,0 +1,52 @@
+"""The one place that turns a film specification into a film: ``make_film(spec, comm)``.
+
+It checks the specification on the communicator (solver.film_rules: elastic and JFO films run on one
+rank), builds the bushing (a WinklerLayer as it is; an FEEye's compliance, from its disk cache when
+built before), the shared discretisation (solver.film.space, solver.film.forms) and then ONE film solver
+(solver.film.solvers) for the cavitation law and the bushing:
+
+=================  ==================  ==========================================
+cavitation         bushing             film solver
+=================  ==================  ==========================================
+reynolds           rigid               ReynoldsVI (SNES VI)
+jfo                rigid               RigidJFO (semismooth Newton, no VI)
+reynolds or jfo    Winkler or FE eye   CoupledFilm (pressure and deformation)
+=================  ==================  ==========================================
+
+No other module asks what kind of film it holds. Adding a cavitation law or a bushing: see
+docs/film-architecture.md.
+"""
+
+from __future__ import annotations
+
+from solver.film.functionals import quiet_jit
+from solver.film.spec import FilmSpec
+
+
+def _bushing(spec: FilmSpec, comm):
+    """The bushing object of the spec (solver.film.bushings): None (rigid), a WinklerLayer or a
+    ModalCompliance (an FEEye's compliance, built here)."""
+    bushing = spec.bushing
+    build = getattr(bushing, "build", None)  # FEEye: data until here
+    return build(comm) if build is not None else bushing
+
+
+def make_film(spec: FilmSpec, comm):
+    """The film of ``spec`` on ``comm`` (solver.film.model.Film)."""
+    from solver.film.forms import FilmForms  # dolfinx, PETSc, gmsh
+    from solver.film.model import Film
+    from solver.film.solvers import CoupledFilm, ReynoldsVI, RigidJFO
+    from solver.film.space import FilmSpace
+
+    spec.check(ranks=comm.size)
+    bushing = _bushing(spec, comm)
+    with quiet_jit():
+        space = FilmSpace(spec, comm, deformable=bushing is not None)
+        forms = FilmForms(space)
+        if bushing is not None:
+            solver = CoupledFilm(space, forms, bushing, spec.cavitation)
+        elif spec.cavitation == "jfo":
+            solver = RigidJFO(space, forms)
+        else:
+            solver = ReynoldsVI(space, forms)
+    return Film(space, forms, solver)

@@ -1,0 +1,453 @@
+"""The film solvers the factory picks from (solver.film.interfaces.FilmSolver): one per film kind.
+
+- ``ReynoldsVI``: a rigid film with Reynolds cavitation, the SNES VI P >= P_cav (solver.film.cavitation).
+- ``RigidJFO``: a rigid mass-conserving film (solver.film.jfo); builds no VI.
+- ``CoupledFilm``: an elastic bushing with either cavitation law, pressure and deformation in one Newton
+  (solver.film.ehd; the JFO rows: solver.film.ehd_jfo).
+
+Each works on a FilmSpace and its FilmForms (solver.film.space, solver.film.forms), leaves the
+pressure in ``space.P`` and answers for what only it knows (flows, rupture, oil held, h_min, state).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+import ufl
+from ufl.algorithms import expand_derivatives
+
+from solver.errors import FilmNotConverged
+from solver.film import reynolds
+from solver.film.cavitation import CavitatingSolver
+from solver.film.ehd import ElasticFilm, deformation_peak
+from solver.film.ehd_jfo import ElasticJFOFilm
+from solver.film.forms import FilmForms
+from solver.film.history import FilmHistory
+from solver.film.space import FilmSpace
+from solver.film.transport import FilmFractionTransport, jfo_coefficients, jfo_prescribed, jfo_solver
+
+log = logging.getLogger(__name__)
+
+
+def _reynolds_flows(space: FilmSpace, forms: FilmForms) -> tuple[float, float]:
+    """(side flow, supply flow) [m^3/s] of the last solve: the consistent fluxes (solver.film.forms)."""
+    s = space.scales
+    supply = forms.assemble(forms.supply_flow_form) * s.flow if forms.supply_flow_form is not None else 0.0
+    return -forms.assemble(forms.side_flow_form) * s.flow, supply
+
+
+def _jfo_flows(space: FilmSpace, solution) -> tuple[float, float]:
+    s, whole = space.scales, float(space.mesh_spec.multiplicity)
+    outflow = solution.outflow
+    return outflow["edges"] * whole * s.flow, -outflow.get("supply", 0.0) * whole * s.flow
+
+
+def _jfo_oil_volume(space: FilmSpace, solution) -> float:
+    """Oil in the film [m^3]: the sum of the nodes' contents m theta."""
+    R, c = space.bearing.radius, space.bearing.clearance
+    return float(np.sum(solution.content)) * float(space.mesh_spec.multiplicity) * R**2 * c
+
+
+def _as_vectors(template, arrays: list[np.ndarray]) -> list:
+    out = []
+    for d_k in arrays:
+        vec = template.duplicate()
+        vec.setArray(d_k)
+        out.append(vec)
+    return out
+
+
+class ReynoldsVI:
+    """The rigid film with Reynolds cavitation: the SNES VI (solver.film.cavitation.CavitatingSolver)."""
+
+    has_history = False
+    max_eccentricity_ratio = 1.0
+    follows_viscosity = True
+
+    def __init__(self, space: FilmSpace, forms: FilmForms):
+        self.space, self.forms = space, forms
+        operator = forms.operator
+        self.vi = CavitatingSolver(
+            forms.a,
+            forms.l,
+            space.P,
+            space.bcs,
+            lower=space.cavitation_bound,
+            options=space.spec.options,
+            A=forms.A,
+            assembler=None if operator is None else operator.assemble,
+        )
+
+    def prepare(self, time_s, history: FilmHistory) -> None:
+        pass
+
+    def solve(self) -> int:
+        self.vi.update()
+        return self.vi.solve()
+
+    def fall_back(self) -> bool:
+        return False
+
+    def turn(self, turn, delta: float) -> None:
+        pass
+
+    def sensitivities(self, dr: list) -> tuple[list, None]:
+        return self.vi.sensitivities(dr), None
+
+    def state(self) -> None:
+        return None
+
+    def start_from(self, state) -> None:
+        pass
+
+    def h_min(self, ecc: np.ndarray) -> float:
+        return self.space.bearing.clearance - math.hypot(*ecc)
+
+    def deformation_peak(self) -> None:
+        return None
+
+    def flows(self) -> tuple[float, float]:
+        return _reynolds_flows(self.space, self.forms)
+
+    def ruptured(self) -> np.ndarray:
+        n = self.space.n
+        lower = self.vi.lower.x.array[:n]
+        return self.space.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+
+    def oil_volume(self) -> float:
+        return math.nan
+
+    def nodal_fields(self) -> dict:
+        return {}
+
+    def set_scales(self) -> None:
+        self.vi.set_lower(self.space.cavitation_bound)
+
+    def close(self) -> None:
+        self.vi.close()
+
+
+class RigidJFO:
+    """The rigid mass-conserving film (solver.film.jfo), with the film fraction's transport
+    (solver.film.transport). Builds no VI."""
+
+    has_history = True
+    max_eccentricity_ratio = 1.0
+    follows_viscosity = True
+
+    def __init__(self, space: FilmSpace, forms: FilmForms):
+        self.space, self.forms = space, forms
+        self.lower = space.lower_bounds()
+        self.jfo = jfo_solver(space)
+        self.transport = FilmFractionTransport(
+            space, forms.operator, self.jfo.prescribed, self.jfo.csr_layout()
+        )
+        self.solution = None  # the last JFOSolution
+        self.history: FilmHistory | None = None
+
+    def prepare(self, time_s, history: FilmHistory) -> None:
+        self.history = history
+        self.transport.prepare(time_s, history)
+
+    def fall_back(self) -> bool:
+        return self.transport.fall_back()
+
+    def solve(self) -> int:
+        """The mass-conserving film at the current constants, with the film fraction's rate from the
+        committed states (quasi-static without one); P = P_cav + max(u, 0)."""
+        jfo, n, operator = self.jfo, self.space.n, self.forms.operator
+        derivatives = self.transport.derivatives
+        # the forms' midpoint rule without dolfinx's assembly; the operator's integrals (the Couette
+        # torques) from the same evaluation
+        matrices, operator.integrals = derivatives.operator()
+        jfo.set_operator(*matrices, limited=derivatives.limited)
+        rate = self.transport.rate
+        dT, theta_old = rate if rate is not None else (None, None)
+        # from the last solve; if semismooth Newton cycles from there (a far state of a Newton iteration),
+        # from the last committed state, then from the full film (whose first step is the Reynolds
+        # solution without cavitation, and which has converged where the others cycled)
+        start = self.history.start if self.history is not None else None
+        starts = [None, *([start[1]] if start is not None else []), np.ones(n)]
+        iterations = 0
+        for k, x0 in enumerate(starts):
+            try:
+                solution = jfo.solve(dT, theta_old=theta_old, start=x0)
+                break
+            except FilmNotConverged as err:
+                iterations += err.iterations
+                if k == len(starts) - 1:
+                    raise FilmNotConverged(
+                        "mass-conserving film did not converge (also from the last committed "
+                        "state and from the full film)",
+                        err.reason,
+                        iterations,
+                    ) from None
+        solution = dataclasses.replace(solution, iterations=solution.iterations + iterations)
+        self.solution = solution
+        self.space.P.x.array[:n] = self.lower[:n] + solution.pressure
+        self.space.P.x.scatter_forward()
+        return solution.iterations
+
+    def turn(self, turn, delta: float) -> None:
+        pass
+
+    def sensitivities(self, dr: list) -> tuple[list, None]:
+        n = self.space.n
+        rate = self.transport.rate
+        dr_u = self.transport.derivatives.kinematic_derivatives(self.jfo.u.x.array[:n], rate)
+        return _as_vectors(dr[0], self.jfo.sensitivities(dr_u)), None
+
+    def state(self) -> np.ndarray:
+        return self.jfo.u.x.array[: self.space.n].copy()
+
+    def start_from(self, state: np.ndarray) -> None:
+        self.jfo.u.x.array[: len(state)] = state
+
+    def h_min(self, ecc: np.ndarray) -> float:
+        return self.space.bearing.clearance - math.hypot(*ecc)
+
+    def deformation_peak(self) -> None:
+        return None
+
+    def flows(self) -> tuple[float, float]:
+        return _jfo_flows(self.space, self.solution)
+
+    def ruptured(self) -> np.ndarray:
+        return self.solution.theta < 1.0
+
+    def oil_volume(self) -> float:
+        return _jfo_oil_volume(self.space, self.solution)
+
+    def nodal_fields(self) -> dict:
+        return {"film_fraction": ("film_fraction", self.solution.theta)}
+
+    def set_scales(self) -> None:
+        self.lower = self.space.lower_bounds()
+        self.jfo.set_prescribed(jfo_prescribed(self.space))
+
+    def close(self) -> None:
+        self.jfo.close()
+
+
+class CoupledFilm:
+    """An elastic bushing and the film solved together (solver.film.ehd), with the Reynolds VI or the
+    mass-conserving film's rows (solver.film.ehd_jfo)."""
+
+    has_history = True
+    #: the bushing's gains and the coupled bounds are built from p_ref: not yet changed in place
+    follows_viscosity = False
+
+    #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
+    RATE_CONTINUATION = 2.0
+    RATE_CONTINUATION_START = 1e7
+    RATE_CONTINUATION_SOLVES = 40  # at most, before the target (quasi-static: 1/dt = 0)
+
+    def __init__(self, space: FilmSpace, forms: FilmForms, bushing, cavitation: str):
+        from solver.film.types import ELASTIC_MAX_ECCENTRICITY
+
+        self.max_eccentricity_ratio = ELASTIC_MAX_ECCENTRICITY
+        self.space, self.forms, self.bushing = space, forms, bushing
+        operator, g, R = forms.operator, space.geometry, space.bearing.radius
+        k_theta, k_z, f = reynolds.reynolds_coefficients(g, space.roughness)
+        P_c = ufl.as_ufl(0.0)
+        if space.contact is not None:
+            # (p_ref as a number: the coupled film takes no new viscosity in place, follows_viscosity)
+            P_c = space.contact.pressure(g.H / space.params.S, mod=ufl) / space.scales.pressure
+        # expanded here: FFCx lowers dW/dtheta = grad(W).t inside its variable before it applies
+        # derivatives, and the derivative with respect to the lowered variable comes out zero
+        derivatives = [
+            expand_derivatives(e)
+            for e in (
+                ufl.diff(k_theta, g.W),
+                ufl.diff(k_z, g.W),
+                ufl.diff(f, g.W),
+                ufl.diff(f, g.dW_dtheta),
+                P_c,
+                ufl.diff(P_c, g.W),
+            )
+        ]
+        coords = space.owned_coords
+        shapes = bushing.shapes(
+            np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, operator.nodal_areas, space.scales
+        )
+        n = space.n
+        self.lower = space.lower_bounds()
+        self.jfo = cavitation == "jfo"
+        self.transport = None
+        if self.jfo:  # the mass-conserving film on the elastic bushing (solver.film.ehd_jfo)
+            prescribed = jfo_prescribed(space)
+            self.ehd = ElasticJFOFilm(
+                operator,
+                space.P,
+                space.W,
+                np.full(n, space.cavitation_bound),
+                derivatives,
+                shapes,
+                jfo_coefficients(space),
+                g.W,
+                prescribed,
+                pressure_map=space.pressure_map(),
+                q_limit=space.q_limit,
+            )
+            layout = (operator.indptr, operator.indices)
+            self.transport = FilmFractionTransport(space, operator, prescribed, layout, coupled=self.ehd)
+        else:
+            self.ehd = ElasticFilm(
+                operator,
+                space.P,
+                space.W,
+                self.lower[:n].copy(),
+                derivatives,
+                shapes,
+                space.spec.options,
+                pressure_map=space.pressure_map(),
+                q_limit=space.q_limit,
+            )
+        # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
+        self.midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
+        self.history: FilmHistory | None = None
+        self.solution = None  # JFO: the last JFOSolution
+
+    def prepare(self, time_s, history: FilmHistory) -> None:
+        """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``, by BDF2
+        (quasi-static without a committed state); with JFO the film fraction's too."""
+        self.history = history
+        space, ehd = self.space, self.ehd
+        n = ehd.n
+        rate = history.rate(time_s, lambda x: ehd.deformation(x[n:]))
+        if rate is None:
+            space.inverse_step.value = 0.0
+        else:
+            space.inverse_step.value = rate[0] / space.scales.omega_ref
+            space.W_previous.x.array[:n] = rate[1]
+        if self.transport is not None:
+            self.transport.prepare(time_s, history)
+            ehd.rate = self.transport.rate
+
+    def fall_back(self) -> bool:
+        return self.transport is not None and self.transport.fall_back()
+
+    def turn(self, turn, delta: float) -> None:
+        self.ehd.q = self.bushing.turn(self.ehd.q, turn, delta)
+
+    def solve(self) -> int:
+        """The coupled solve at the current constants (solver.film.ehd). The warm start is the last
+        solve, which inside a time step's Newton iteration can be a state far from this one; if the
+        solve fails from there it is tried again from the committed state (the last accepted one)."""
+        iterations = self._solve()
+        if self.jfo:
+            self.solution = self.ehd.solution()
+            self.forms.operator.evaluate()  # (its integrals: the Couette torques of the solution)
+        return iterations
+
+    def _solve(self) -> int:
+        space, ehd = self.space, self.ehd
+        coords = space.owned_coords
+        ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array(
+            [float(space.params.eps_x.value), float(space.params.eps_y.value)]
+        )
+        start = self.history.start if self.history is not None else None
+        try:
+            return ehd.solve()
+        except FilmNotConverged as err:
+            if start is None:
+                raise
+            iterations = err.iterations
+        # From the last accepted state, continued in the deformation's rate: with a short step (a large
+        # 1/dt) the deformation stays near the accepted one and the solve is easy; 1/dt is then brought
+        # down to this step's in factors of RATE_CONTINUATION, each solve starting from the one before.
+        target = float(space.inverse_step.value)
+        self.start_from(start[1])
+        path, value = [], self.RATE_CONTINUATION_START / space.scales.omega_ref
+        while value > target * (1 + 1e-12) and len(path) < self.RATE_CONTINUATION_SOLVES:
+            path.append(value)
+            value /= self.RATE_CONTINUATION
+        for inverse_step in [*path, target]:
+            space.inverse_step.value = inverse_step
+            try:
+                iterations += ehd.solve()
+            except FilmNotConverged as again:
+                space.inverse_step.value = target
+                dt = 1 / (inverse_step * space.scales.omega_ref) if inverse_step > 0 else math.inf
+                raise FilmNotConverged(
+                    f"elastic film solve did not converge (also continued from the last "
+                    f"accepted state, to dt = {dt:.3g} s)",
+                    again.reason,
+                    iterations + again.iterations,
+                ) from None
+        return iterations
+
+    def sensitivities(self, dr: list) -> tuple[list, list]:
+        """Pressure and deformation together (solver.film.ehd, ehd_jfo)."""
+        ehd = self.ehd
+        names = list(self.space.geometry.variables())
+        dr_film = (
+            [v.getArray().copy() for v in dr]
+            if not self.jfo
+            else self.transport.derivatives.kinematic_derivatives(ehd.u, ehd.rate)
+        )
+        d = ehd.sensitivities(ehd.residual_derivatives(dr_film, names))
+        n = ehd.n
+        return _as_vectors(dr[0], [d_k[:n] for d_k in d]), [ehd.deformation(d_k[n:]) for d_k in d]
+
+    def state(self) -> np.ndarray:
+        return self.ehd.state()
+
+    def start_from(self, state: np.ndarray) -> None:
+        self.ehd.start_from(state)
+
+    def h_min(self, ecc: np.ndarray) -> float:
+        """Minimum film thickness of the deformed bushing [m]: the least of the nodes' and of the rigid
+        minimum gap (mid-plane, along the eccentricity) plus the deformation of the nearest node there
+        (so that a very stiff bushing gives the rigid c - |e| exactly)."""
+        space = self.space
+        coords, n = space.owned_coords, space.n
+        eps = np.array([float(space.params.eps_x.value), float(space.params.eps_y.value)])
+        W = space.W.x.array[:n]
+        H = self.ehd.rigid_gap + W  # the rigid gap of this state, set by _solve
+        at_nodes = float(np.min(H))
+        if not np.any(eps):
+            return at_nodes * space.bearing.clearance
+        angle = math.atan2(eps[1], eps[0])
+        mid = self.midplane
+        nearest = mid[
+            np.argmin(np.abs(np.angle(np.exp(1j * (np.arctan2(coords[mid, 1], coords[mid, 0]) - angle)))))
+        ]
+        at_gap = 1.0 - math.hypot(*eps) + W[nearest]
+        return min(at_nodes, at_gap) * space.bearing.clearance
+
+    def deformation_peak(self) -> tuple[float, float]:
+        space = self.space
+        return deformation_peak(space.W.x.array[: space.n], space.owned_coords, space.bearing.clearance)
+
+    def flows(self) -> tuple[float, float]:
+        if self.jfo:
+            return _jfo_flows(self.space, self.solution)
+        return _reynolds_flows(self.space, self.forms)
+
+    def ruptured(self) -> np.ndarray:
+        if self.jfo:
+            return self.solution.theta < 1.0
+        n = self.space.n
+        lower = self.lower[:n]
+        return self.space.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+
+    def oil_volume(self) -> float:
+        return _jfo_oil_volume(self.space, self.solution) if self.jfo else math.nan
+
+    def nodal_fields(self) -> dict:
+        out = {"deformation": ("deformation_m", self.space.W.x.array * self.space.bearing.clearance)}
+        if self.jfo:
+            out["film_fraction"] = ("film_fraction", self.solution.theta)
+        return out
+
+    def set_scales(self) -> None:
+        # the bushing's gains and the coupled solve's bounds are built from p_ref (solver.film.ehd): a
+        # new coupled solve would be needed, which this film does not do yet
+        raise NotImplementedError("set_viscosity of a film with an elastic bushing: build the film anew")
+
+    def close(self) -> None:
+        self.ehd.close()
