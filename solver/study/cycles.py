@@ -262,9 +262,9 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
             friction_tolerance is None or f_change < friction_tolerance
         ), text
 
-    def at_film_temperature(t_start: float) -> None:  # the temperature the thermal iteration asks for
+    def at_film_temperature() -> None:  # the temperature the thermal iteration asks for
         if oil.thermal is not None and oil.thermal.temperature != oil.temperature:
-            set_film_temperature(run, oil.thermal.temperature, t_start)
+            set_film_temperature(run, oil.thermal.temperature)
 
     def thermal_step(cycle_index: int, cycle: CycleOutput) -> bool:  # True: consistent (or isothermal)
         if oil.thermal is None:
@@ -293,7 +293,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         # log lines go above the progress bar instead of through it
         with _logs_above_the_bar() if bar is not None else nullcontext():
             for index in range(first, case.solver.max_cycles):
-                at_film_temperature(t0)
+                at_film_temperature()
                 cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
                 history.append(cycle.h_min_min)
                 friction.append(cycle.friction_power_mean)
@@ -328,7 +328,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         if bar is not None:
             bar.close()
     if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
-        at_film_temperature(t0)
+        at_film_temperature()
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
         friction.append(cycle.friction_power_mean)

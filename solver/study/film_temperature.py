@@ -11,8 +11,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from solver.dynamics.engine import build_mechanism
-from solver.dynamics.joint import FilmJoint, joint_from_case
 from solver.study.thermal import EffectiveTemperature, HeatBalance, ThermalModel, cycle_mean
 
 
@@ -71,30 +69,16 @@ class FilmOil:
         return record
 
 
-def set_film_temperature(run, temperature: float, t: float) -> None:
-    """The film's oil at ``temperature`` [C] from time t [s] on (a cycle end): the run's joint viscosity
+def set_film_temperature(run, temperature: float) -> None:
+    """The film's oil at ``temperature`` [C] from the next cycle on: the run's joint viscosity
     becomes the oil's there (oil.thermal = "effective"; the density enters the heat balance only).
 
-    A finite-element film with ``set_viscosity(mu)`` is updated in place and gets a new FilmJoint
-    (its cache holds results at the old viscosity). Without it, the joint and its film model are
-    built again from the case at the new temperature (mixed-fem: ~0.4 s with the compiled forms
-    cached, ~1.5 s for a new viscosity, whose forms are compiled anew; the warm start is lost). An
-    elastic bushing's last committed deformation is committed to the new model at t, so a solve at t
-    takes its deformation rate as quasi-static where the run would have used the state before t.
+    The joint takes the new viscosity in place (``set_viscosity``): a finite-element film keeps its
+    forms, its history and its warm start (solver.film.model.Film.set_viscosity), with no rebuild and
+    no compilation.
 
-    ``run``: solver.study.simulation.Run (its case, engine, joint, model, mechanism and oil are updated).
+    ``run``: solver.study.simulation.Run (its joint and oil are updated).
     """
     oil = dataclasses.replace(run.case.oil, temperature=temperature)
-    if run.model is not None and hasattr(run.model, "set_viscosity"):
-        run.model.set_viscosity(oil.viscosity)
-        run.joint = FilmJoint(run.model)
-    else:
-        deformation = run.joint.commit(t) if run.model is not None else None
-        if run.model is not None:
-            run.model.close()
-        case = dataclasses.replace(run.case, oil=oil)
-        run.joint, run.model = joint_from_case(case, run.engine, run.comm, run.joint_name)
-        if deformation is not None:
-            run.model.commit_history(deformation, t)
-    run.em = build_mechanism(run.engine, run.joint)
+    run.joint.set_viscosity(oil.viscosity)
     run.oil.temperature, run.oil.viscosity = temperature, oil.viscosity

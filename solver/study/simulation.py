@@ -43,7 +43,7 @@ from solver.errors import InputError
 from solver.study import cycles, fields
 from solver.study import results as results_io
 from solver.study.cycles import CycleOutput, SimulationError, describe_timing
-from solver.study.film_temperature import FilmOil, set_film_temperature
+from solver.study.film_temperature import FilmOil
 from solver.study.outputs import ideal_cycle_columns
 from solver.study.results import RunSummary
 
@@ -86,10 +86,6 @@ class Run:
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""
         return cycles.integrate_cycle(self, cycle, t0, q0, qd0, progress)
-
-    def set_film_temperature(self, temperature: float, t: float) -> None:
-        """The film's oil at ``temperature`` [C] from time t on (solver.study.film_temperature)."""
-        set_film_temperature(self, temperature, t)
 
     def write_fields(self, directory: Path, cycle: CycleOutput) -> list[Path]:
         """ParaView fields of the last cycle (finite-element film only; solver.study.fields); the
