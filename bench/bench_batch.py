@@ -107,7 +107,8 @@ def main() -> int:
         else:
             shutil.rmtree(work_dir, ignore_errors=True)
     print(
-        f"# {args.cases} cases, {args.joint} joint, 1 cycle, step {args.step_deg:g} deg; {os.cpu_count()} cores; "
+        f"# {args.cases} cases, {args.joint} joint, 1 cycle, step {args.step_deg:g} deg; "
+        f"{os.cpu_count()} cores; "
         f"load average before the last run {os.getloadavg()[0]:.2f}"
     )
     print(
@@ -123,7 +124,8 @@ def main() -> int:
         slowdown = row["work"] / base["work"]  # > 1: the cases themselves ran slower (cores shared)
         print(
             f"{row['ranks']:5d} {row['wall']:11.1f} {row['batch']:9.1f} {row['work']:12.1f} "
-            f"{row['n'] / row['wall'] * 3600:10.0f} {e_wall:11.2f} {e_batch:9.2f} {busy:5.2f} {slowdown:13.2f}  "
+            f"{row['n'] / row['wall'] * 3600:10.0f} {e_wall:11.2f} {e_batch:9.2f} {busy:5.2f} "
+            f"{slowdown:13.2f}  "
             f"{row['per_rank']}"
         )
     return 0

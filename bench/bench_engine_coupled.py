@@ -67,8 +67,10 @@ def main() -> None:
     io_total = float(timing["io_s"].sum()) + fields_io
     other_setup = total - float(timing["wall_s"].sum()) - fields_io  # case, mesh, forms, ideal cycle, results
     print(
-        f"reference case, mixed-fem, {cycles} cycles, total {total:.1f} s, h_min min {summary.h_min_min * 1e6:.4f} um, "
-        f"friction power mean {summary.friction_power_mean:.4f} W, p_max max {summary.p_max_max / 1e6:.2f} MPa, "
+        f"reference case, mixed-fem, {cycles} cycles, total {total:.1f} s, "
+        f"h_min min {summary.h_min_min * 1e6:.4f} um, "
+        f"friction power mean {summary.friction_power_mean:.4f} W, "
+        f"p_max max {summary.p_max_max / 1e6:.2f} MPa, "
         f"F_asperity max {summary.F_asperity_max:.2f} N"
     )
     print("| per cycle | wall [s] | share |")
@@ -85,10 +87,13 @@ def main() -> None:
     print(f"| **total** | **{total / cycles:.1f}** | |")
     solves, jacobians = timing["film_solves"].sum(), timing["film_jacobians"].sum()
     print(
-        f"film solves {solves / cycles:.0f} per cycle ({1e3 * timing['film_solve_s'].sum() / max(1, solves):.2f} ms each, "
+        f"film solves {solves / cycles:.0f} per cycle "
+        f"({1e3 * timing['film_solve_s'].sum() / max(1, solves):.2f} ms each, "
         f"{timing['vi_iterations'].sum() / max(1, solves):.2f} VI iterations each), "
-        f"Jacobians {jacobians / cycles:.0f} per cycle ({1e3 * timing['film_jacobian_s'].sum() / max(1, jacobians):.2f} ms each), "
-        f"integrator steps {timing['steps'].sum() / cycles:.0f} per cycle ({timing['rejected_steps'].sum() / cycles:.0f} rejected)"
+        f"Jacobians {jacobians / cycles:.0f} per cycle "
+        f"({1e3 * timing['film_jacobian_s'].sum() / max(1, jacobians):.2f} ms each), "
+        f"integrator steps {timing['steps'].sum() / cycles:.0f} per cycle "
+        f"({timing['rejected_steps'].sum() / cycles:.0f} rejected)"
     )
     print(
         "wall time of each cycle [s]: "

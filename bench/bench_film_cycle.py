@@ -34,7 +34,7 @@ CASE = ROOT / "cases" / "reference-2000rpm"
 def record(path: Path) -> None:
     from solver.study import simulation
 
-    run = simulation._Run(load_case(CASE), MPI.COMM_SELF, "mixed-fem")
+    run = simulation.Run(load_case(CASE), MPI.COMM_SELF, "mixed-fem")
     model = run.model
     calls: list[tuple] = []
     solve, jacobian = model.solve, model.jacobian

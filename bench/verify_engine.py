@@ -4,7 +4,8 @@
         [--base-rtol R] [--max-cycles N] [--periodic-tolerance T] [--periodic-friction-tolerance F]
         [--only VARIANT ...] [--keep]
 
-Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's) with the mixed finite-element film at a base resolution and refined
+Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's)
+with the mixed finite-element film at a base resolution and refined
 variants, and physical variants, each until periodic (at most 3 cycles), and prints:
 
 - periodicity: cycles needed and the last cycle-to-cycle change of min h_min (and of the mean
@@ -151,7 +152,8 @@ def main() -> None:
         return
     b = rows["base"]
     print(
-        f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, rtol {args.base_rtol:g}, periodic "
+        f"\nbase: mesh {args.base_mesh} R, outputs every {args.base_step} deg, "
+        f"rtol {args.base_rtol:g}, periodic "
         f"tolerance {args.periodic_tolerance:g}, friction {args.periodic_friction_tolerance} "
         f"(cycles: {b['cycles']}, periodic: {b['periodic']})"
     )
@@ -165,7 +167,8 @@ def main() -> None:
         dh = (r["h_min_min"] / b["h_min_min"] - 1) * 100
         dp = (r["friction_power_mean"] / b["friction_power_mean"] - 1) * 100
         print(
-            f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | {r['friction_power_mean']:.3f} | "
+            f"| {label} | {r['cycles']} | {r['h_min_min'] * 1e6:.4f} | {dh:+.2f} % | "
+            f"{r['friction_power_mean']:.3f} | "
             f"{dp:+.2f} % | {100 * r['friction_last_change']:+.2f} % | {r['F_asperity_max']:.0f} | "
             f"{r['p_max_max'] / 1e6:.0f} | {100 * r['energy_error']:+.3f} % "
             f"({100 * r['energy_error_outputs']:+.2f} %) | {r['wall']:.0f} |"
@@ -178,7 +181,8 @@ def main() -> None:
         f"max asperity force {'smaller' if v['F_asperity_max'] < b['F_asperity_max'] else 'NOT smaller'}"
     )
     print(
-        f"trend roughness x 1.5: max asperity force {'larger' if s['F_asperity_max'] > b['F_asperity_max'] else 'NOT larger'}"
+        f"trend roughness x 1.5: max asperity force "
+        f"{'larger' if s['F_asperity_max'] > b['F_asperity_max'] else 'NOT larger'}"
     )
     if not args.keep:
         shutil.rmtree(work, ignore_errors=True)

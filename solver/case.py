@@ -4,7 +4,8 @@ Outside (TOML) every key carries its unit when it is not an SI base unit (``bore
 ``speed_rpm``, ``clearance_um``); inside every float is SI (m, kg, s, rad, Pa). The conversion
 happens once, in :func:`load_case`. One table, :data:`FIELDS`, holds every key: its unit factor,
 default, allowed range and meaning. It drives the loader, the range checks in ``__post_init__`` (so
-a dataclass built in Python is checked too) and :func:`case_reference_markdown`, the README table.
+a dataclass built in Python is checked too) and the reference page docs/case-reference.md
+(``python3 -m solver docs``).
 
 The defaults are the reference engine of DESIGN 3.7 (a 2.0 L four-cylinder gasoline engine, one
 cylinder, 2000 rpm, single-zone pressure with a 60 bar peak). A case file only needs what differs
@@ -1295,28 +1296,6 @@ def load_case(path: str | Path) -> Case:
             arguments.setdefault("model", "trace" if "pressure_file" in arguments else "single-zone")
         values[section] = cls(**arguments)
     return Case(directory=directory, **values)
-
-
-def case_reference_markdown() -> str:
-    """The case-format table for the README, generated from :data:`FIELDS`."""
-    lines = ["| key | unit | default | allowed | meaning |", "|---|---|---|---|---|"]
-    for spec in FIELDS:
-        if spec.default is None:
-            default = "(none)"
-        elif spec.kind is bool:
-            default = str(spec.default).lower()
-        elif spec.kind is float:
-            default = f"{spec.default:g}"
-        elif spec.kind is list:
-            default = "[" + ", ".join(f"{v:g}" for v in spec.default) + "]"
-        elif spec.kind is int:
-            default = str(spec.default)
-        else:
-            default = f'"{spec.default}"'
-        unit = spec.unit or "-"
-        cells = [f"`{spec.name}`", unit, default, spec.allowed(), spec.doc]
-        lines.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
-    return "\n".join(lines) + "\n"
 
 
 def case_attributes(case: Case) -> dict[str, object]:

@@ -4,20 +4,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from pathlib import Path
 
 import pytest
 
 from solver.case import (
-    FIELDS,
     Case,
     Engine,
     Gas,
     SmallEnd,
     Solver,
     Surface,
-    case_reference_markdown,
     load_case,
 )
 from solver.dynamics.joint import surface_from_case
@@ -151,7 +148,8 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ("speed_rpm = 2000\n", r"unknown key speed_rpm"),
         (
             "[gas]\ncombustion_start_deg = 460\ncombustion_duration_deg = 40\n",
-            r"^gas.combustion_duration_deg = 40 is out of range \(allowed: < 30 \(combustion must end before the exhaust opens",
+            r"^gas.combustion_duration_deg = 40 is out of range "
+            r"\(allowed: < 30 \(combustion must end before the exhaust opens",
         ),
         (
             "[gas]\ncombustion_start_deg = 100\n",
@@ -198,7 +196,8 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ),
         (
             '[oil]\ninlet = "axial-groove"\ngroove_length_mm = 20\n',
-            r"^oil.groove_length_mm = 20 is out of range \(allowed: \(0, small_end.width_mm = 20\), inside the bushing\)$",
+            r"^oil.groove_length_mm = 20 is out of range "
+            r"\(allowed: \(0, small_end.width_mm = 20\), inside the bushing\)$",
         ),
         (
             '[oil]\ninlet = "circumferential-groove"\ngroove_width_mm = 25\n',
@@ -220,8 +219,10 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ('[oil]\ngrade = "5W-31"\n', r"^oil.grade = '5W-31' is out of range \(allowed: '0W-20'"),
         ("[oil]\nkinematic_viscosity_40C_cSt = 68\n", r"together \(allowed: all three, or none\)"),
         (
-            "[oil]\nkinematic_viscosity_40C_cSt = 10\nkinematic_viscosity_100C_cSt = 11\ndensity_15C_kg_m3 = 850\n",
-            r"^oil.kinematic_viscosity_40C_cSt = 10(\.0)? is out of range \(allowed: > oil.kinematic_viscosity_100C_cSt = 11",
+            "[oil]\nkinematic_viscosity_40C_cSt = 10\nkinematic_viscosity_100C_cSt = 11\n"
+            "density_15C_kg_m3 = 850\n",
+            r"^oil.kinematic_viscosity_40C_cSt = 10(\.0)? is out of range "
+            r"\(allowed: > oil.kinematic_viscosity_100C_cSt = 11",
         ),
         ('[oil]\ngrade = "5W-30"\ntemperature_C = 300\n', r"^oil.temperature_C = 300 is out of range"),
         (
@@ -259,19 +260,6 @@ def test_dataclasses_validate_when_built_in_python():
     assert Case(name="x", directory=Path(".")).engine == Engine()
 
 
-def test_reference_table_lists_every_field_with_default_and_range():
-    """The README table comes from FIELDS: one well-formed row per key (unit, default, range, meaning)."""
-    table = case_reference_markdown()
-    lines = table.splitlines()
-    assert lines[0].startswith("| key | unit | default | allowed | meaning |")
-    for spec in FIELDS:
-        row = next(line for line in lines if line.startswith(f"| `{spec.name}` |"))
-        assert spec.allowed() in row and spec.doc.replace("|", "\\|") in row  # pipes escaped for markdown
-        assert len(re.split(r"(?<!\\)\|", row)) == 7  # exactly five cells between unescaped pipes
-    assert "| `engine.rod_mass_kg` | kg | 0.55 | > 0 |" in table
-    assert "| `gas.combustion_start_deg` | deg | 350 | (180, 540) |" in table
-
-
 def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     """oil.grade, or the three data-sheet values, replace viscosity_Pa_s: the film's viscosity is the
     ASTM D341 viscosity at oil.temperature_C times the density there (solver.oil, tested against the
@@ -283,7 +271,8 @@ def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     sheet = oil_from_grade("5W-30")
     text = (
         f"[oil]\nkinematic_viscosity_40C_cSt = {sheet.kinematic_viscosity_40C}\n"
-        f"kinematic_viscosity_100C_cSt = {sheet.kinematic_viscosity_100C}\ndensity_15C_kg_m3 = {sheet.density_15C}\n"
+        f"kinematic_viscosity_100C_cSt = {sheet.kinematic_viscosity_100C}\n"
+        f"density_15C_kg_m3 = {sheet.density_15C}\n"
         "temperature_C = 90\n"
     )
     data = load_case(write_case(tmp_path / "sheet", text))

@@ -126,7 +126,8 @@ def run(args: argparse.Namespace, comm) -> int:
                 print(json.dumps({"runs": rows, "plot": str(args.output) if args.output else None}))
             else:
                 print(
-                    f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} {'max F_asp':>10} "
+                    f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} "
+                    f"{'max F_asp':>10} "
                     f"{'friction':>9} {'max w':>8} {'cavitation':>10} {'cav. area':>9}"
                 )
                 for row in rows:

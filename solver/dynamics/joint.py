@@ -351,7 +351,8 @@ class DryContactJoint(ClearanceJoint):
 
 
 def surface_from_case(surf) -> Surface:
-    """The film's Surface (roughness and contact models) of a case's ``surface`` section (the pin is the journal)."""
+    """The film's Surface (roughness and contact models) of a case's ``surface`` section (the pin is
+    the journal)."""
     return Surface(
         sigma_journal=surf.sigma_pin,
         sigma_bushing=surf.sigma_bushing,

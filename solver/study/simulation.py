@@ -107,10 +107,6 @@ class Run:
         return paths
 
 
-#: the name tests/conftest.py and bench/bench_film_cycle.py used (until they are switched to Run)
-_Run = Run
-
-
 def run_case(
     case_path: str | Path,
     comm: MPI.Comm,
