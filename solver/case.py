@@ -138,7 +138,7 @@ def _f(
     )
 
 
-#: Every key of case.toml (single source of the loader, the checks and the README table).
+#: Every key of case.toml (single source of the loader, the checks and docs/case-reference.md).
 FIELDS: tuple[FieldSpec, ...] = (
     FieldSpec("", "name", "name", str, None, unit="", doc="case name (default: the case directory's name)"),
     FieldSpec("", "description", "description", str, "", doc="free text"),
@@ -398,12 +398,11 @@ FIELDS: tuple[FieldSpec, ...] = (
         str,
         "none",
         choices=("none", "winkler", "fe"),
-        doc="bushing deformation under the film and asperity pressure (DESIGN 7): none (rigid), winkler "
-        "(thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of the "
-        "eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an "
-        "engine cycle "
-        "costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are nodal: one LU of "
-        "the whole coupled matrix; see the README's benchmarks)",
+        doc="bushing deformation under the film and asperity pressure (docs/models.md): none (rigid), "
+        "winkler (thin bushing on a rigid eye, w = k p node by node) or fe (finite-element compliance of "
+        "the eye and bushing, cached on disk); needs inlet none, hole or a groove. With the FE eye an "
+        "engine cycle costs about 2 times the rigid one, with a Winkler bushing more (its unknowns are "
+        "nodal: one LU of the whole coupled matrix; docs/benchmarks.md)",
     ),
     _f(
         "small_end",
@@ -608,9 +607,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="cavitation model: reynolds (p >= p_cav, the seed's model; not mass-conserving) or jfo "
         "(mass-conserving: the film fraction is carried through the cycle; inlet none or a supply; with "
         "inlet none it needs cavitation_pressure_bar < 0: the edges flooded, oil drawn in there). In "
-        "an engine "
-        "run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, rtol 1e-7, "
-        "as `cases/reference-2000rpm-jfo`; the README's refinement study)",
+        "an engine run the JFO film needs a finer resolution than the defaults for 2 % (mesh_size 0.047, "
+        "rtol 1e-7, as `cases/reference-2000rpm-jfo`; the refinement study in docs/verification.md)",
     ),
     FieldSpec(
         "oil",
