@@ -7,7 +7,7 @@ the force of the bushing on the journal in the bushing frame, the torques on jou
 their centres (counter-clockwise +), and on request the Jacobian ``d[F'_x, F'_y, T_j, T_b] /
 d[e'_x, e'_y, de'_x/dt, de'_y/dt, omega_rel]``.
 
-- ``FilmJoint``: the finite-element mixed-lubrication film (solver.film.bearing.FilmModel): averaged
+- ``FilmJoint``: the finite-element mixed-lubrication film (solver.film.model.Film): averaged
   Reynolds equation with VI cavitation, Greenwood-Tripp asperity contact, viscous and asperity
   friction; its Jacobian is exact with the active set frozen (one factorisation, back-substitutions).
 - ``ShortBearingJoint``: Ocvirk's short-bearing film (Reynolds without the circumferential pressure
@@ -48,7 +48,7 @@ def _complex_step_jacobian(function, z: np.ndarray) -> np.ndarray:
 
 
 class FilmJoint(ClearanceJoint):
-    """The finite-element film (and asperity contact) of solver.film.bearing as a clearance joint.
+    """The finite-element film (and asperity contact) of solver.film.model as a clearance joint.
 
     The film model is built once and reused: each call updates its kinematics and warm-starts the VI.
     Asking for the Jacobian at the state just solved costs no new solve, and the film results of the
@@ -92,7 +92,7 @@ class FilmJoint(ClearanceJoint):
 
     def commit(self, t: float) -> np.ndarray | None:
         """Elastic bushing: the deformation of the last evaluated state, at time t, starts the next rate;
-        returns that state's unknowns (solver.film.bearing.FilmModel.history_state), or None."""
+        returns that state's unknowns (solver.film.model.Film.history_state), or None."""
         if not self._elastic or self._last_key not in self._cache:
             return None
         state = self._cache[self._last_key][1]
@@ -370,7 +370,7 @@ def surface_from_case(surf) -> Surface:
 
 def bearing_supply(oil) -> dict[str, object]:
     """The oil supply of a case's ``oil`` section (already checked to fit the small end, solver.case) as
-    keyword arguments of solver.film.bearing.Bearing (SI; the rod frame is the bushing frame)."""
+    keyword arguments of solver.film.types.Bearing (SI; the rod frame is the bushing frame)."""
     if oil.inlet == "hole":
         return {
             "supply_pressure": oil.supply_pressure,

@@ -45,7 +45,7 @@ def write_fields(
         field_step: rad, the series' step (0: none).
         field_angles: rad, the snapshots' crank angles.
     """
-    from solver.film.bearing import Kinematics  # dolfinx: only for a finite-element joint
+    from solver.film.types import Kinematics  # (numpy only)
 
     angles = columns["crank_angle"]
 
