@@ -72,7 +72,7 @@ U_d sigma phi_s along the sliding direction), H the stored gap (the mean gap h_T
 Sensitivities (``sensitivities``): at a converged solution r(u; c) = 0 on its partition, for any
 parameters c of the coefficients, ``du/dc = -J^-1 dr/dc`` with J the last Newton Jacobian (the
 solution's partition) and dr/dc at fixed u from the caller (the bearing film takes them at the cell
-midpoints, solver.film.ehd_jfo.MidpointJFO: the derivatives of K, of the upwinded T, whose edge
+midpoints, solver.film.jfo_midpoint.MidpointJFO: the derivatives of K, of the upwinded T, whose edge
 diffusion follows the entry that is its maximum, and of the storage terms).
 
 What the caller provides: a P1 space, H and U as UFL expressions (D optional), the prescribed dofs by
@@ -259,7 +259,7 @@ class JFOSolver:
     ) -> None:
         """``update`` from values computed elsewhere (serial): K's and the Couette matrix's values in
         their CSR layout (``csr_layout``; C before upwinding), m and mdot at the dofs. The bearing film
-        computes them at the cell midpoints (solver.film.ehd_jfo.MidpointJFO), the forms' own rule."""
+        computes them at the cell midpoints (solver.film.jfo_midpoint.MidpointJFO), the forms' own rule."""
         self.couette = C_values  # before upwinding (the caller's array, not written to)
         indptr, indices = self.csr_layout()
         self.K.setValuesCSR(indptr, indices, K_values)
@@ -531,7 +531,7 @@ def _upwind(C: PETSc.Mat, limited: LimitedTransport | None = None) -> None:
 def upwind_pick(C: np.ndarray, Ct: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Per CSR entry (i, j): True when d_ij = max(0, C_ij, C_ji) follows C_ij, i.e. node i is the upwind
     node of the edge (C_ij >= C_ji; ties: the lower row). Shared by ``_upwind``, TransportLimiter and
-    solver.film.ehd_jfo.MidpointJFO.upwinded."""
+    solver.film.jfo_midpoint.MidpointJFO.upwinded."""
     return (C > Ct) | ((C == Ct) & (rows < cols))
 
 
