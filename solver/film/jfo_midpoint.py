@@ -9,7 +9,7 @@ import scipy.sparse
 import ufl
 from dolfinx import fem
 
-from solver.film.jfo import upwind_pick
+from solver.film.jfo_limiter import upwind_pick
 from solver.film.tensors import MIDPOINT
 
 

@@ -19,7 +19,8 @@ import ufl
 
 from solver.film import reynolds
 from solver.film.history import FilmHistory
-from solver.film.jfo import JFOSolver, TransportLimiter
+from solver.film.jfo import JFOSolver
+from solver.film.jfo_limiter import TransportLimiter
 from solver.film.jfo_midpoint import MidpointJFO
 from solver.film.space import FilmSpace
 
