@@ -43,10 +43,10 @@ class SchurLU:
     Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
     """
 
-    def __init__(self, film):  # (solver.film.ehd.ElasticFilm)
+    def __init__(self, film):  # (solver.film.coupled_reynolds.ReynoldsRows)
         self.film = weakref.proxy(film)  # (owned by the film's SNES: no reference cycle through C)
         op, n = film.op, film.n
-        # the film block's pattern is the operator's (A(H) of ElasticFilm.residual)
+        # the film block's pattern is the operator's (A(H) of ReynoldsRows.rows)
         self._indptr, self._indices = op.indptr.astype(PETSc.IntType), op.indices.astype(PETSc.IntType)
         self.K = PETSc.Mat().createAIJ(
             (n, n), csr=(self._indptr, self._indices, np.zeros(len(op.indices))), comm=film.comm
@@ -76,7 +76,7 @@ class SchurLU:
     KRYLOV_TOLERANCE = 1e-12
 
     def factor(self, inactive: PETSc.IS) -> None:
-        """Factorise for this inactive set (indices into (P, q)); the blocks are ElasticFilm's (the
+        """Factorise for this inactive set (indices into (P, q)); the blocks are ReynoldsRows' (the
         borders dense: SchurLU serves the modal film). Only the film block is factorised here; the Schur
         complement is formed (m back-substitutions) the first time, after a failure, when the last one
         no longer preconditions the Schur system well (``_schur_solve``) and for the sensitivities

@@ -10,7 +10,8 @@ cavitation         bushing             film solver
 =================  ==================  ==========================================
 reynolds           rigid               ReynoldsVI (SNES VI)
 jfo                rigid               RigidJFO (semismooth Newton, no VI)
-reynolds or jfo    Winkler or FE eye   CoupledFilm (pressure and deformation)
+reynolds           Winkler or FE eye   CoupledFilm with ReynoldsRows (one coupled VI)
+jfo                Winkler or FE eye   CoupledFilm with JFORows (one semismooth Newton)
 =================  ==================  ==========================================
 
 No other module asks what kind of film it holds. Adding a cavitation law or a bushing: see
@@ -33,6 +34,8 @@ def _bushing(spec: FilmSpec, comm):
 
 def make_film(spec: FilmSpec, comm):
     """The film of ``spec`` on ``comm`` (solver.film.model.Film)."""
+    from solver.film.cavitation_jfo import JFORows
+    from solver.film.coupled_reynolds import ReynoldsRows
     from solver.film.forms import FilmForms  # dolfinx, PETSc, gmsh
     from solver.film.model import Film
     from solver.film.solvers import CoupledFilm, ReynoldsVI, RigidJFO
@@ -43,8 +46,10 @@ def make_film(spec: FilmSpec, comm):
     with quiet_jit():
         space = FilmSpace(spec, comm, deformable=bushing is not None)
         forms = FilmForms(space)
-        if bushing is not None:
-            solver = CoupledFilm(space, forms, bushing, spec.cavitation)
+        if bushing is not None:  # the cavitation law's rows in the coupled Newton
+            rows = JFORows if spec.cavitation == "jfo" else ReynoldsRows
+            block = rows(space, forms.operator, None if spec.cavitation == "jfo" else spec.options)
+            solver = CoupledFilm(space, forms, bushing, block)
         elif spec.cavitation == "jfo":
             solver = RigidJFO(space, forms)
         else:

@@ -3,6 +3,8 @@
 - ``FilmSolver``: what a Film (solver.film.model) asks of the solver the factory picked: solve at the
   space's constants, the sensitivities, the history state, the outputs only it knows. Implementations:
   solver.film.solvers.ReynoldsVI, RigidJFO, CoupledFilm.
+- ``CavitationBlock``: the film's rows of the coupled elastic Newton (solver.film.ehd.CoupledNewton), one
+  per cavitation law: solver.film.coupled_reynolds.ReynoldsRows (the VI), solver.film.cavitation_jfo.JFORows.
 - ``Bushing``: solver.film.bushings.Bushing (shapes and gains of the deformation).
 """
 
@@ -15,7 +17,7 @@ import numpy as np
 from solver.film.bushings import Bushing
 from solver.film.history import FilmHistory
 
-__all__ = ["Bushing", "FilmSolver"]
+__all__ = ["Bushing", "CavitationBlock", "FilmSolver"]
 
 
 class FilmSolver(Protocol):
@@ -39,4 +41,32 @@ class FilmSolver(Protocol):
     def oil_volume(self) -> float: ...  # m^3 (NaN: not mass-conserving)
     def nodal_fields(self) -> dict[str, tuple[str, np.ndarray]]: ...  # extra output fields (SI)
     def set_scales(self) -> None: ...  # after the space's scales changed (a new viscosity)
+    def close(self) -> None: ...
+
+
+class CavitationBlock(Protocol):
+    """A cavitation law's rows in the coupled elastic Newton (solver.film.ehd.CoupledNewton), on the
+    film's nodal unknown u (Reynolds: u = P; JFO: P = P_cav + max(u, 0)). The Newton owns the state x =
+    (u, q), the bushing's rows, the fixed pattern and the step limit; the block its rows and its solve."""
+
+    coefficients: list  # UFL evaluated at the midpoints in the Newton's kernel (before the derivatives)
+
+    def attach(self, newton: Any) -> None: ...  # its SNES and LU on the Newton's pattern and vectors
+    def pressure(self, u: np.ndarray) -> np.ndarray: ...  # P (/ p_ref) from u
+    def pressure_step(self, u: np.ndarray, step: np.ndarray) -> tuple: ...  # (P, dP) of the step u - step
+    def rows(self, u: np.ndarray, values: np.ndarray) -> np.ndarray: ...  # R_u at the Newton's state
+    def jacobian_matrix(self, format: str = "csr") -> Any: ...  # the coupled Jacobian at the state
+    def solve(self) -> int: ...  # Newton from the last (u, q); iterations
+    def film_state(self) -> np.ndarray: ...  # u of the last solve
+    def start_from(self, u: np.ndarray) -> None: ...
+    def prepare(self, time_s: float | None, history: FilmHistory) -> None: ...  # its own rates
+    def fall_back(self) -> bool: ...
+    def film_derivatives(self, dr: list) -> list: ...  # dR_u/dtheta at fixed (u, q)
+    def sensitivities(self, dr: list) -> list: ...  # d(P - P_cav, q)/dtheta, its set frozen
+    def after_solve(self, forms: Any) -> None: ...
+    def flows(self, forms: Any) -> tuple[float, float]: ...  # (side, supply) m^3/s
+    def ruptured(self) -> np.ndarray: ...
+    def oil_volume(self) -> float: ...
+    def nodal_fields(self) -> dict: ...
+    def set_scales(self) -> None: ...  # after a new p_ref
     def close(self) -> None: ...

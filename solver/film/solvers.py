@@ -2,8 +2,9 @@
 
 - ``ReynoldsVI``: a rigid film with Reynolds cavitation, the SNES VI P >= P_cav (solver.film.cavitation).
 - ``RigidJFO``: a rigid mass-conserving film (solver.film.jfo); builds no VI.
-- ``CoupledFilm``: an elastic bushing with either cavitation law, pressure and deformation in one Newton
-  (solver.film.ehd; the JFO rows: solver.film.ehd_jfo).
+- ``CoupledFilm``: an elastic bushing and a cavitation block (solver.film.interfaces.CavitationBlock: the
+  Reynolds VI's rows, solver.film.coupled_reynolds; the JFO rows, solver.film.cavitation_jfo), pressure
+  and deformation in one Newton (solver.film.ehd.CoupledNewton).
 
 Each works on a FilmSpace and its FilmForms (solver.film.space, solver.film.forms), leaves the
 pressure in ``space.P`` and answers for what only it knows (flows, rupture, oil held, h_min, state).
@@ -22,33 +23,20 @@ from ufl.algorithms import expand_derivatives
 from solver.errors import FilmNotConverged
 from solver.film import reynolds
 from solver.film.cavitation import CavitatingSolver
-from solver.film.ehd import ElasticFilm, deformation_peak
-from solver.film.ehd_jfo import ElasticJFOFilm
+from solver.film.coupled_reynolds import at_bound, reynolds_flows
+from solver.film.ehd import CoupledNewton, deformation_peak
 from solver.film.forms import FilmForms
 from solver.film.history import FilmHistory
 from solver.film.space import FilmSpace
-from solver.film.transport import FilmFractionTransport, jfo_coefficients, jfo_prescribed, jfo_solver
+from solver.film.transport import (
+    FilmFractionTransport,
+    jfo_flows,
+    jfo_oil_volume,
+    jfo_prescribed,
+    jfo_solver,
+)
 
 log = logging.getLogger(__name__)
-
-
-def _reynolds_flows(space: FilmSpace, forms: FilmForms) -> tuple[float, float]:
-    """(side flow, supply flow) [m^3/s] of the last solve: the consistent fluxes (solver.film.forms)."""
-    s = space.scales
-    supply = forms.assemble(forms.supply_flow_form) * s.flow if forms.supply_flow_form is not None else 0.0
-    return -forms.assemble(forms.side_flow_form) * s.flow, supply
-
-
-def _jfo_flows(space: FilmSpace, solution) -> tuple[float, float]:
-    s, whole = space.scales, float(space.mesh_spec.multiplicity)
-    outflow = solution.outflow
-    return outflow["edges"] * whole * s.flow, -outflow.get("supply", 0.0) * whole * s.flow
-
-
-def _jfo_oil_volume(space: FilmSpace, solution) -> float:
-    """Oil in the film [m^3]: the sum of the nodes' contents m theta."""
-    R, c = space.bearing.radius, space.bearing.clearance
-    return float(np.sum(solution.content)) * float(space.mesh_spec.multiplicity) * R**2 * c
 
 
 def _as_vectors(template, arrays: list[np.ndarray]) -> list:
@@ -110,12 +98,11 @@ class ReynoldsVI:
         return None
 
     def flows(self) -> tuple[float, float]:
-        return _reynolds_flows(self.space, self.forms)
+        return reynolds_flows(self.space, self.forms)
 
     def ruptured(self) -> np.ndarray:
         n = self.space.n
-        lower = self.vi.lower.x.array[:n]
-        return self.space.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+        return at_bound(self.space.P.x.array[:n], self.vi.lower.x.array[:n])
 
     def oil_volume(self) -> float:
         return math.nan
@@ -213,13 +200,13 @@ class RigidJFO:
         return None
 
     def flows(self) -> tuple[float, float]:
-        return _jfo_flows(self.space, self.solution)
+        return jfo_flows(self.space, self.solution)
 
     def ruptured(self) -> np.ndarray:
         return self.solution.theta < 1.0
 
     def oil_volume(self) -> float:
-        return _jfo_oil_volume(self.space, self.solution)
+        return jfo_oil_volume(self.space, self.solution)
 
     def nodal_fields(self) -> dict:
         return {"film_fraction": ("film_fraction", self.solution.theta)}
@@ -233,8 +220,10 @@ class RigidJFO:
 
 
 class CoupledFilm:
-    """An elastic bushing and the film solved together (solver.film.ehd), with the Reynolds VI or the
-    mass-conserving film's rows (solver.film.ehd_jfo)."""
+    """An elastic bushing (solver.film.interfaces.Bushing) and the film solved together by one coupled
+    Newton (solver.film.ehd.CoupledNewton) on the film's rows of a cavitation block
+    (solver.film.interfaces.CavitationBlock: solver.film.coupled_reynolds.ReynoldsRows or
+    solver.film.cavitation_jfo.JFORows)."""
 
     has_history = True
     #: the bushing's gains and the coupled bounds are built from p_ref: not yet changed in place
@@ -245,11 +234,11 @@ class CoupledFilm:
     RATE_CONTINUATION_START = 1e7
     RATE_CONTINUATION_SOLVES = 40  # at most, before the target (quasi-static: 1/dt = 0)
 
-    def __init__(self, space: FilmSpace, forms: FilmForms, bushing, cavitation: str):
+    def __init__(self, space: FilmSpace, forms: FilmForms, bushing, block):
         from solver.film.types import ELASTIC_MAX_ECCENTRICITY
 
         self.max_eccentricity_ratio = ELASTIC_MAX_ECCENTRICITY
-        self.space, self.forms, self.bushing = space, forms, bushing
+        self.space, self.forms, self.bushing, self.block = space, forms, bushing, block
         operator, g, R = forms.operator, space.geometry, space.bearing.radius
         k_theta, k_z, f = reynolds.reynolds_coefficients(g, space.roughness)
         P_c = ufl.as_ufl(0.0)
@@ -273,47 +262,23 @@ class CoupledFilm:
         shapes = bushing.shapes(
             np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, operator.nodal_areas, space.scales
         )
-        n = space.n
-        self.lower = space.lower_bounds()
-        self.jfo = cavitation == "jfo"
-        self.transport = None
-        if self.jfo:  # the mass-conserving film on the elastic bushing (solver.film.ehd_jfo)
-            prescribed = jfo_prescribed(space)
-            self.ehd = ElasticJFOFilm(
-                operator,
-                space.P,
-                space.W,
-                np.full(n, space.cavitation_bound),
-                derivatives,
-                shapes,
-                jfo_coefficients(space),
-                g.W,
-                prescribed,
-                pressure_map=space.pressure_map(),
-                q_limit=space.q_limit,
-            )
-            layout = (operator.indptr, operator.indices)
-            self.transport = FilmFractionTransport(space, operator, prescribed, layout, coupled=self.ehd)
-        else:
-            self.ehd = ElasticFilm(
-                operator,
-                space.P,
-                space.W,
-                self.lower[:n].copy(),
-                derivatives,
-                shapes,
-                space.spec.options,
-                pressure_map=space.pressure_map(),
-                q_limit=space.q_limit,
-            )
+        self.ehd = CoupledNewton(
+            operator,
+            space.P,
+            space.W,
+            derivatives,
+            shapes,
+            block,
+            pressure_map=space.pressure_map(),
+            q_limit=space.q_limit,
+        )
         # the point of minimum rigid gap lies on the mid-plane (z = 0): the nodes there, by angle
         self.midplane = np.flatnonzero(np.abs(coords[:, 2]) < 1e-12)
         self.history: FilmHistory | None = None
-        self.solution = None  # JFO: the last JFOSolution
 
     def prepare(self, time_s, history: FilmHistory) -> None:
         """The deformation's rate in the squeeze term, ``inverse_step (W - W_previous)``, by BDF2
-        (quasi-static without a committed state); with JFO the film fraction's too."""
+        (quasi-static without a committed state); the block's own (JFO: the film fraction's)."""
         self.history = history
         space, ehd = self.space, self.ehd
         n = ehd.n
@@ -323,12 +288,10 @@ class CoupledFilm:
         else:
             space.inverse_step.value = rate[0] / space.scales.omega_ref
             space.W_previous.x.array[:n] = rate[1]
-        if self.transport is not None:
-            self.transport.prepare(time_s, history)
-            ehd.rate = self.transport.rate
+        self.block.prepare(time_s, history)
 
     def fall_back(self) -> bool:
-        return self.transport is not None and self.transport.fall_back()
+        return self.block.fall_back()
 
     def turn(self, turn, delta: float) -> None:
         self.ehd.q = self.bushing.turn(self.ehd.q, turn, delta)
@@ -338,9 +301,7 @@ class CoupledFilm:
         solve, which inside a time step's Newton iteration can be a state far from this one; if the
         solve fails from there it is tried again from the committed state (the last accepted one)."""
         iterations = self._solve()
-        if self.jfo:
-            self.solution = self.ehd.solution()
-            self.forms.operator.evaluate()  # (its integrals: the Couette torques of the solution)
+        self.block.after_solve(self.forms)
         return iterations
 
     def _solve(self) -> int:
@@ -381,15 +342,10 @@ class CoupledFilm:
         return iterations
 
     def sensitivities(self, dr: list) -> tuple[list, list]:
-        """Pressure and deformation together (solver.film.ehd, ehd_jfo)."""
+        """Pressure and deformation together (solver.film.ehd)."""
         ehd = self.ehd
         names = list(self.space.geometry.variables())
-        dr_film = (
-            [v.getArray().copy() for v in dr]
-            if not self.jfo
-            else self.transport.derivatives.kinematic_derivatives(ehd.u, ehd.rate)
-        )
-        d = ehd.sensitivities(ehd.residual_derivatives(dr_film, names))
+        d = ehd.sensitivities(ehd.residual_derivatives(self.block.film_derivatives(dr), names))
         n = ehd.n
         return _as_vectors(dr[0], [d_k[:n] for d_k in d]), [ehd.deformation(d_k[n:]) for d_k in d]
 
@@ -424,24 +380,17 @@ class CoupledFilm:
         return deformation_peak(space.W.x.array[: space.n], space.owned_coords, space.bearing.clearance)
 
     def flows(self) -> tuple[float, float]:
-        if self.jfo:
-            return _jfo_flows(self.space, self.solution)
-        return _reynolds_flows(self.space, self.forms)
+        return self.block.flows(self.forms)
 
     def ruptured(self) -> np.ndarray:
-        if self.jfo:
-            return self.solution.theta < 1.0
-        n = self.space.n
-        lower = self.lower[:n]
-        return self.space.P.x.array[:n] - lower <= 1e-12 * max(1.0, float(np.max(np.abs(lower), initial=0.0)))
+        return self.block.ruptured()
 
     def oil_volume(self) -> float:
-        return _jfo_oil_volume(self.space, self.solution) if self.jfo else math.nan
+        return self.block.oil_volume()
 
     def nodal_fields(self) -> dict:
         out = {"deformation": ("deformation_m", self.space.W.x.array * self.space.bearing.clearance)}
-        if self.jfo:
-            out["film_fraction"] = ("film_fraction", self.solution.theta)
+        out.update(self.block.nodal_fields())
         return out
 
     def set_scales(self) -> None:

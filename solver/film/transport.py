@@ -18,9 +18,10 @@ import numpy as np
 import ufl
 
 from solver.film import reynolds
-from solver.film.ehd_jfo import MidpointJFO
 from solver.film.history import FilmHistory
-from solver.film.jfo import JFOSolver, TransportLimiter
+from solver.film.jfo import JFOSolver
+from solver.film.jfo_limiter import TransportLimiter
+from solver.film.jfo_midpoint import MidpointJFO
 from solver.film.space import FilmSpace
 
 log = logging.getLogger(__name__)
@@ -72,6 +73,19 @@ def jfo_solver(space: FilmSpace) -> JFOSolver:
     )  # (engine: 1.2 iterations a solve; a cycling start is retried)
 
 
+def jfo_flows(space: FilmSpace, solution) -> tuple[float, float]:
+    """(side flow, supply flow) [m^3/s] of a JFO solution: the prescribed dofs' outflows."""
+    s, whole = space.scales, float(space.mesh_spec.multiplicity)
+    outflow = solution.outflow
+    return outflow["edges"] * whole * s.flow, -outflow.get("supply", 0.0) * whole * s.flow
+
+
+def jfo_oil_volume(space: FilmSpace, solution) -> float:
+    """Oil in the film [m^3]: the sum of the nodes' contents m theta."""
+    R, c = space.bearing.radius, space.bearing.clearance
+    return float(np.sum(solution.content)) * float(space.mesh_spec.multiplicity) * R**2 * c
+
+
 class FilmFractionTransport:
     """The film fraction's rate and limited transport of one JFO film (module docstring).
 
@@ -80,12 +94,12 @@ class FilmFractionTransport:
         operator: its MidpointOperator.
         prescribed: the JFO film's prescribed dofs (name -> (dofs, u)).
         layout: the CSR layout (indptr, indices) of the JFO film's matrices.
-        coupled: the elastic JFO film (solver.film.ehd_jfo.ElasticJFOFilm), whose own midpoint
-            evaluation takes the same factors; None: rigid.
+        also: another MidpointJFO that takes the same factors (the JFO rows of the coupled elastic
+            Newton, solver.film.cavitation_jfo); None: rigid.
     """
 
-    def __init__(self, space: FilmSpace, operator, prescribed: dict, layout, coupled=None):
-        self.space, self.coupled = space, coupled
+    def __init__(self, space: FilmSpace, operator, prescribed: dict, layout, also=None):
+        self.space, self.also = space, also
         is_bc = np.zeros(space.n, dtype=bool)
         for dofs, _ in prescribed.values():
             is_bc[dofs] = True
@@ -130,8 +144,8 @@ class FilmFractionTransport:
                 self.limited_key = key
             limited = None if key == self.upwind_key else self.limited
         self.derivatives.limited = limited
-        if self.coupled is not None:
-            self.coupled.mid.limited = limited
+        if self.also is not None:
+            self.also.limited = limited
 
     def fall_back(self) -> bool:
         """After a failed solve: upwind until the next commit if the solve was limited (True: retry)."""

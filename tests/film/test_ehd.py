@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from solver.film.bearing import Bearing, FilmModel, Kinematics
-from solver.film.ehd import ElasticFilm, WinklerLayer
+from solver.film.bushings import WinklerLayer
+from solver.film.coupled_reynolds import ReynoldsRows
 from solver.film.surface import Surface
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
@@ -142,7 +143,7 @@ def test_very_stiff_bushing_gives_the_rigid_film():
 
 @pytest.mark.serial
 def test_the_solve_tolerance_leaves_forces_and_torques_unchanged(monkeypatch):
-    """ElasticFilm.TOLERANCE (the coupled residual at which a solve stops, 1e-8 of the film's source)
+    """ReynoldsRows.TOLERANCE (the coupled residual at which a solve stops, 1e-8 of the film's source)
     against a solve to 1e-13 from the same warm start (the mixed state, from a neighbour 1e-5 c and
     1e-3 rad away): the default stops an iteration earlier (quadratic Newton: its last step is the one
     the tighter tolerance adds), and the forces and torque agree to 1e-6 of themselves (the residual
@@ -161,8 +162,8 @@ def test_the_solve_tolerance_leaves_forces_and_torques_unchanged(monkeypatch):
         MIXED.omega_bushing,
     )
     out = {}
-    for tolerance in (ElasticFilm.TOLERANCE, 1e-13):
-        monkeypatch.setattr(ElasticFilm, "TOLERANCE", tolerance)
+    for tolerance in (ReynoldsRows.TOLERANCE, 1e-13):
+        monkeypatch.setattr(ReynoldsRows, "TOLERANCE", tolerance)
         with FilmModel(
             bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.1, elastic=WinklerLayer(**BRONZE), **_rough()
         ) as model:
@@ -432,19 +433,19 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
             elastic=ModalCompliance(coarse_eye, 24),
             **_rough(),
         ) as model:
-            assert isinstance(model.solver.ehd.lu, SchurLU)
+            assert isinstance(model.solver.ehd.block.lu, SchurLU)
             if whole:
-                model.solver.ehd.use_whole_lu()
+                model.solver.ehd.block.use_whole_lu()
             out = []
             for k, state in enumerate(states):
                 if k == 2 and not whole:  # a failed complement (NaN) is formed anew, not used to precondition
-                    lu = model.solver.ehd.lu
+                    lu = model.solver.ehd.block.lu
                     lu.S = (np.full_like(lu.S[0], np.nan), lu.S[1])
                 result = model.solve(state)
                 out.append((result.iterations, model.solver.ehd.state(), model.jacobian().matrix))
             runs.append(out)
             if not whole:
-                lu = model.solver.ehd.lu
+                lu = model.solver.ehd.block.lu
                 assert lu.n_formed >= 2 and lu.n_krylov > 0, (lu.n_formed, lu.n_krylov)
             if not whole:  # the modal blocks as dense arrays against the sparse products (1e-12), at the
                 film = (

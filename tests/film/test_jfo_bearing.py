@@ -244,7 +244,7 @@ def test_jfo_refuses_what_it_does_not_support():
             model.commit_history(model.history_state(), 0.0)
 
 
-# -- the mass-conserving film on an elastic bushing (solver.film.ehd_jfo) ------------------------------
+# -- the mass-conserving film on an elastic bushing (solver.film.cavitation_jfo) ---------------------------
 
 T_BUSHING, E_BUSHING, NU_BUSHING = 1.5e-3, 115e9, 0.33  # the reference small end's bronze bushing
 

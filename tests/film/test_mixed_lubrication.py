@@ -88,7 +88,8 @@ def test_half_film_equals_the_whole_film():
 def test_uniform_contact_of_a_concentric_pin():
     """Concentric pin, c = 0.5 um, sigma = 0.316 um: H = 1.58 < 3 everywhere. Then
     integral p_c dA = p_c(H) 2 pi R B, the asperity force vector vanishes, the asperity friction torque
-    on the pin is mu_f p_c(H) 2 pi R B R (along the bushing's motion), and A_c/A = pi^2 (eta beta sigma)^2 F_2(H).
+    on the pin is mu_f p_c(H) 2 pi R B R (along the bushing's motion), and
+    A_c/A = pi^2 (eta beta sigma)^2 F_2(H).
     Tolerance 1e-3: the faceted mesh's area is 2e-4 low at h = 0.05 R; F by quadrature (test_contact)."""
     c = 0.5e-6
     surface = Surface(sigma_journal=0.1e-6, sigma_bushing=0.3e-6)

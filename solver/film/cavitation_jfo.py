@@ -1,0 +1,314 @@
+"""The JFO rows of the coupled elastic Newton (solver.film.ehd.CoupledNewton): the cavitation block
+``JFORows``, one semismooth Newton on (u, q) in PETSc SNES.
+
+The JFO film of solver.film.jfo (one nodal unknown u: P - P_cav = max(u, 0), theta = 1 + min(u, 0)) on
+the deformed gap H = H_rigid + Phi q of solver.film.ehd, with the bushing's equation as there::
+
+    R_u(u, q) = K(H) max(u, 0) + T(H) theta(u) + s(H, theta) = 0     (prescribed dofs: u - u_bc)
+    R_q(u, q) = q - g * Phi^T (a p(P) + F_c(H)) = 0
+
+K the Poiseuille matrix (H^3 phi_x, H^3 phi_y), T the conservative Couette transport of the mean gap
+h_T with Kuzmin's upwinding (limited edge by edge when ``MidpointJFO.limited`` is set: solver.film.jfo.
+TransportLimiter, from the last committed film fraction), s the storage in its rate form:
+m (theta - theta_ref) / dT + mdot theta, m_i = integral(h_T phi_i), mdot_i = integral(phi_c dH/dT
+phi_i), with the deformation's rate inside dH/dT (solver.film.reynolds.FilmGeometry) and dtheta/dT by
+BDF2 through the committed states (``theta_ref``, ``dT``; solver.film.history). Every coefficient is
+evaluated at the cell midpoints
+(the operator's rule, solver.film.tensors), so the matrices are sums over cells of fixed local
+matrices times these values, and their derivatives with respect to the midpoint gap H_K are as
+cheap. The exact Jacobian::
+
+    dR_u/du = K diag(u > 0) + (T + diag(m/dT + mdot)) diag(u <= 0)       (identity rows: prescribed)
+    dR_u/dq = sum over K of dR_u/dH_K dH_K/dq          (the upwinding's edge diffusion follows the
+                                                        entry that is its maximum at this state)
+    dR_q/du = -g Phi^T diag(a dp/dP (u > 0))
+    dR_q/dq = I - g Phi^T (dF_c/dH) Phi
+
+No bounds: semismooth Newton (``newtonls``, basic line search, the step limited as the coupled VI's,
+solver.film.ehd.step_factor) converges when a step keeps the partition (u > 0) and the residual is at
+round-off; the LU of the full matrix is refactorised numerically (one pattern). The forces'
+sensitivities to the kinematics use the same matrix.
+"""
+
+from __future__ import annotations
+
+import logging
+import weakref
+
+from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse
+
+from solver.errors import FilmNotConverged
+from solver.film.cavitation import configured_snes
+from solver.film.coupled_lu import DampedLU
+from solver.film.jfo import JFOSolution, semismooth_reason
+from solver.film.jfo_midpoint import MidpointJFO
+from solver.film.transport import (
+    FilmFractionTransport,
+    jfo_coefficients,
+    jfo_flows,
+    jfo_oil_volume,
+    jfo_prescribed,
+)
+
+log = logging.getLogger(__name__)
+
+#: PETSc options of the coupled semismooth Newton
+OPTIONS: dict[str, str | float | int] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_max_it": 60,
+    "snes_divergence_tolerance": -1.0,
+    "ksp_type": "preonly",
+    "pc_type": "python",
+}
+
+
+class JFORows:
+    """The JFO film's rows and semismooth Newton in the coupled Newton (module docstring), with the film
+    fraction's transport in time (solver.film.transport.FilmFractionTransport).
+
+    Args:
+        space: the film's FilmSpace (its geometry's W the coefficients are differentiated by).
+        operator: the film's MidpointOperator (serial P1).
+        options: PETSc options over OPTIONS.
+    """
+
+    def __init__(self, space, operator, options: dict | None = None):
+        self.space, self.op, self.options = space, operator, options
+        n = space.n
+        self.n = n
+        self.lower = np.full(n, space.cavitation_bound)
+        self.coefficients: list = []  # evaluated with the coupled Newton's derivatives: none
+        self.set_prescribed(jfo_prescribed(space))
+        is_bc = self.is_bc
+        # values, then d/dW at the midpoints
+        self.mid = MidpointJFO(operator, jfo_coefficients(space), [space.geometry.W], is_bc)
+        self.transport = FilmFractionTransport(
+            space, operator, self.prescribed, (operator.indptr, operator.indices), also=self.mid
+        )
+        self.u = np.ones(n)  # the full film: its first step is the Reynolds solution without cavitation
+        self.u[is_bc] = self.u_bc[is_bc]
+        self.rate: tuple[float, np.ndarray] | None = None  # (dT, theta_ref) of the film fraction
+        self._partition: np.ndarray | None = None
+        self._scale = 1.0
+        self.solution: JFOSolution | None = None  # the last solve's
+
+    def set_prescribed(self, prescribed: dict) -> None:
+        """The prescribed dofs and their u (solver.film.transport.jfo_prescribed)."""
+        self.prescribed = {
+            name: (np.asarray(dofs, np.int32), float(value)) for name, (dofs, value) in prescribed.items()
+        }
+        self.u_bc = np.zeros(self.n)
+        self.is_bc = np.zeros(self.n, dtype=bool)
+        for dofs, value in self.prescribed.values():
+            self.u_bc[dofs] = value
+            self.is_bc[dofs] = True
+
+    def attach(self, newton) -> None:
+        """Build the semismooth Newton on the coupled Newton's pattern (solver.film.ehd.CoupledNewton)."""
+        self.newton = weakref.proxy(newton)
+        self.comm, self.A = newton.comm, newton.A
+        self.snes = configured_snes(self.comm, "ehdjfo", {**OPTIONS, **(self.options or {})})
+        self.snes.setFunction(newton.snes_residual, newton.r)
+        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setConvergenceTest(self._converged)
+        self.lu = DampedLU(self.comm, newton.limit)
+        pc = self.snes.getKSP().getPC()
+        pc.setType(PETSc.PC.Type.PYTHON)
+        pc.setPythonContext(self.lu)
+
+    # -- history ------------------------------------------------------------------------------------
+    def prepare(self, time_s, history) -> None:
+        """The film fraction's rate and transport for a solve at ``time_s``."""
+        self.transport.prepare(time_s, history)
+        self.rate = self.transport.rate
+
+    def fall_back(self) -> bool:
+        return self.transport.fall_back()
+
+    # -- the rows -----------------------------------------------------------------------------------
+    def pressure(self, u: np.ndarray) -> np.ndarray:
+        """P = P_cav + max(u, 0)."""
+        return self.lower + np.maximum(u, 0.0)
+
+    def pressure_step(self, u: np.ndarray, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(P, its change) for the Newton step u - step."""
+        plus = np.maximum(u, 0.0)
+        return self.lower + plus, -(plus - np.maximum(u - step, 0.0))
+
+    def rows(self, u: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """R_u (module docstring); caches this state's matrices and coefficients."""
+        n, op = self.n, self.op
+        plus, theta = np.maximum(u, 0.0), 1.0 + np.minimum(u, 0.0)
+        c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
+        self.c = c
+        K = scipy.sparse.csr_matrix(
+            (op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n)
+        )
+        upwinded, self._d, self._pick = self.mid.upwinded(self.mid.T_C @ c[:, 2])
+        T = scipy.sparse.csr_matrix((upwinded, op.indices, op.indptr), shape=(n, n))
+        m, mdot = op.T_f @ c[:, 3], op.T_f @ c[:, 4]
+        storage_diagonal, history = mdot.copy(), np.zeros(n)
+        if self.rate is not None:
+            dT, theta_ref = self.rate
+            storage_diagonal += m / dT
+            history = -m * theta_ref / dT
+        self._K, self._T, self._m, self._storage = K, T, m, storage_diagonal
+        R_u = K @ plus + T @ theta + storage_diagonal * theta + history
+        self._unconstrained = R_u.copy()
+        R_u[self.is_bc] = u[self.is_bc] - self.u_bc[self.is_bc]
+        return R_u
+
+    def _jacobian(self, snes, x, J, Pmat) -> None:
+        self._partition = x.getArray(readonly=True)[: self.n] > 0.0
+        self.newton.snes_jacobian(snes, x, J, Pmat)
+
+    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
+        """The coupled Jacobian at the cached state (module docstring)."""
+        newton, op, n, c = self.newton, self.op, self.n, self.c
+        u = newton.state_x[:n]
+        positive = u > 0.0
+        Ts = self._T + scipy.sparse.diags(self._storage)
+        J_uu = self._K @ scipy.sparse.diags(positive.astype(float)) + Ts @ scipy.sparse.diags(
+            (~positive).astype(float)
+        )
+        keep = scipy.sparse.diags((~self.is_bc).astype(float))
+        J_uu = (keep @ J_uu + scipy.sparse.diags(self.is_bc.astype(float))).tocsr()
+        # d R_u / d H_K at the vertices of each cell
+        local = self.mid.local_derivative(
+            c[:, 5:10], self.mid.local_bases(u, (self._d, self._pick), self.rate)
+        )
+        rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
+        dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
+        J_uq = keep @ (dH @ newton.average_Phi)
+        slope = positive.astype(float) if newton.slope is None else positive * newton.slope
+        J_qu, J_qq = newton.bushing_blocks(slope, dense=False)
+        return scipy.sparse.bmat([[J_uu, J_uq], [J_qu, J_qq]], format=format)
+
+    # -- solve -------------------------------------------------------------------------------------
+    def _converged(self, snes, iteration: int, norms) -> int:
+        """As solver.film.jfo.JFOSolver: a step that kept the partition with the residual at round-off
+        (the coupled residual is not piecewise linear in q, so its size is checked too)."""
+
+        def kept() -> bool:
+            x = snes.getSolution().getArray(readonly=True)
+            return np.array_equal(x[: self.n] > 0.0, self._partition) and norms[2] <= 1e-10 * self._scale
+
+        return semismooth_reason(snes, iteration, norms[2], 1e-11 * self._scale, self._partition, kept)
+
+    def solve(self) -> int:
+        """Solve from the last (u, q); returns the Newton iterations."""
+        newton, n = self.newton, self.n
+        x0 = np.concatenate([np.where(self.is_bc, self.u_bc, self.u), newton.q])
+        r0 = newton.residual(x0)
+        # the flux scale: the film's residual at the full film with zero gauge pressure inside
+        reference = np.concatenate([np.where(self.is_bc, self.u_bc, 0.0), newton.q])
+        self._scale = max(
+            float(np.linalg.norm(newton.residual(reference)[:n])), float(np.linalg.norm(r0[n:])), 1e-12
+        )
+        self._partition = None
+        newton.x.setArray(x0)
+        self.snes.solve(None, newton.x)
+        iterations = self.snes.getIterationNumber()
+        reason = self.snes.getConvergedReason()
+        x = newton.x.getArray(readonly=True).copy()
+        if reason <= 0 or not np.all(np.isfinite(x)):
+            newton.residual(x0)
+            raise FilmNotConverged("elastic mass-conserving film did not converge", reason, iterations)
+        if not np.array_equal(x, newton.state_x):
+            newton.residual(x)
+        self.u, newton.q = x[:n].copy(), x[n:].copy()
+        self.solution = self._solution(iterations)
+        return iterations
+
+    def _solution(self, iterations: int) -> JFOSolution:
+        """The film of the last solve as solver.film.jfo reports it (dimensionless, every dof)."""
+        u = self.u
+        theta = 1.0 + np.minimum(u, 0.0)
+        outflow = {
+            name: -float(np.sum(self._unconstrained[dofs])) for name, (dofs, _) in self.prescribed.items()
+        }
+        return JFOSolution(
+            pressure=np.maximum(u, 0.0),
+            theta=theta,
+            content=self._m * theta,
+            load=float(self.newton.areas @ np.maximum(u, 0.0)),
+            outflow=outflow,
+            iterations=iterations,
+        )
+
+    def film_state(self) -> np.ndarray:
+        """The film's unknown of the last solve: u."""
+        return self.u
+
+    def start_from(self, u: np.ndarray) -> None:
+        self.u = u.copy()
+
+    # -- sensitivities -------------------------------------------------------------------------------
+    def film_derivatives(self, dr: list) -> list[np.ndarray]:
+        """dR_u/dtheta at fixed (u, q) (the rigid forms' dr are the Reynolds rows': not these)."""
+        return self.transport.derivatives.kinematic_derivatives(self.u, self.rate)
+
+    def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
+        """d(u, q)/dc = -J^-1 dR/dc at the last solution (J at its partition); the u part is returned
+        as d(P - P_cav) = diag(u > 0) du."""
+        newton = self.newton
+        x = PETSc.Vec().createWithArray(newton.state_x.copy(), comm=self.comm)
+        self._jacobian(None, x, self.A, self.A)
+        x.destroy()
+        self.lu.setUp(_Operators(self.A))
+        b, y = self.A.createVecs()
+        out = []
+        positive = newton.state_x[: self.n] > 0.0
+        for d in dr:
+            b.setArray(-np.asarray(d))
+            self.lu.ksp.solve(b, y)
+            if self.lu.ksp.getConvergedReason() < 0:
+                self.lu.failed = True
+                raise FilmNotConverged("elastic mass-conserving film: the sensitivities' LU failed", -1, 0)
+            values = y.getArray(readonly=True).copy()
+            values[: self.n] *= positive
+            out.append(values)
+        b.destroy()
+        y.destroy()
+        return out
+
+    # -- outputs -----------------------------------------------------------------------------------
+    def flows(self, forms) -> tuple[float, float]:
+        """(side, supply) [m^3/s]: the prescribed dofs' outflows."""
+        return jfo_flows(self.space, self.solution)
+
+    def ruptured(self) -> np.ndarray:
+        return self.solution.theta < 1.0
+
+    def oil_volume(self) -> float:
+        return jfo_oil_volume(self.space, self.solution)
+
+    def nodal_fields(self) -> dict:
+        return {"film_fraction": ("film_fraction", self.solution.theta)}
+
+    def after_solve(self, forms) -> None:
+        """The operator's integrals (the Couette torques) of the solution."""
+        forms.operator.evaluate()
+
+    def set_scales(self) -> None:
+        """After a new p_ref: the bound and the prescribed values."""
+        self.lower[:] = self.space.cavitation_bound
+        self.set_prescribed(jfo_prescribed(self.space))
+
+    def close(self) -> None:
+        self.lu.destroy()
+        self.snes.destroy()
+
+
+class _Operators:
+    """What DampedLU.setUp asks of a PC: its operators."""
+
+    def __init__(self, A: PETSc.Mat):
+        self.A = A
+
+    def getOperators(self):  # noqa: N802 - PETSc's name
+        return self.A, self.A
