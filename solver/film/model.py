@@ -112,6 +112,14 @@ class Film:
         return self.space.dofs
 
     @property
+    def frame_angle(self) -> float:
+        """The angle [rad] by which the last solve's solution frame is turned from the bushing frame
+        (counter-clockwise): the angle of the maximum gap with the max-gap inlet (solver.film.frame),
+        0 with any other inlet or before a solve. A field of the solution at theta is at
+        theta + frame_angle in the bushing frame."""
+        return self._beta
+
+    @property
     def max_eccentricity_ratio(self) -> float:
         """|e| / c below which the film is defined: 1 when rigid; with an elastic bushing the pin may
         go further, into the deformed bushing."""
