@@ -34,6 +34,20 @@ def central_differences(model, base, steps, time_s=None) -> np.ndarray:
     return J_fd
 
 
+@pytest.fixture(scope="session")
+def coarse_eye(tmp_path_factory):
+    """A coarse finite-element compliance of the reference eye (36 x 3 loads, 0.6 R elements: seconds)."""
+    from solver.film.compliance import EyeGeometry, eye_compliance
+
+    R = 0.01
+    geometry = EyeGeometry(
+        bore_radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=1.7 * R, shank_angle_deg=90.0
+    )
+    return eye_compliance(
+        geometry, n_theta=36, n_z=3, element_size=0.6 * R, cache_dir=tmp_path_factory.mktemp("compliance")
+    )
+
+
 @pytest.fixture
 def film_differences():
     """``central_differences(model, base, steps, time_s=None)`` as a fixture."""
