@@ -1,5 +1,5 @@
 """What every film kind must do, on one fixture parametrised over the kinds the factory builds
-(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO)."""
+(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO, the FE eye)."""
 
 from __future__ import annotations
 
