@@ -131,7 +131,7 @@ class CoupledNewton:
             ufl.as_vector(list(block.coefficients) + list(derivatives)), MIDPOINT
         )
         Phi, gains = shapes
-        Phi, self.gains = scipy.sparse.csr_matrix(Phi), np.asarray(gains, float)
+        Phi = scipy.sparse.csr_matrix(Phi)
         op = operator
         n, m = len(op.indptr) - 1, Phi.shape[1]
         self.n, self.m = n, m
@@ -153,13 +153,11 @@ class CoupledNewton:
         self.Phi = Phi.toarray() if self.dense else Phi
         self.interior = np.ones(n)
         self.interior[op.bc_dofs] = 0.0
-        self.gPhiT = (scipy.sparse.diags(self.gains) @ Phi.T).tocsr()
-        self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
+        self._Phi_sparse = Phi
         if self.dense:
             self.average_Phi_dense = self.average_Phi.toarray()
-            self.J_qP_dense = self.J_qP.toarray()
-            self.gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
             self.border = border_map(op, n)
+        self._set_gains(gains)
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix(
             (np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells))
@@ -191,6 +189,25 @@ class CoupledNewton:
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _scatter's lookup
         self.iterations = 0
         block.attach(self)
+
+    def _set_gains(self, gains) -> None:
+        """The gains g and the blocks built from them: g Phi^T, dR_q/dP = -g Phi^T diag(a) and, with a few
+        modes, their dense copies (their sparsity does not depend on g > 0: the pattern stays)."""
+        self.gains = np.asarray(gains, float)
+        self.gPhiT = (scipy.sparse.diags(self.gains) @ self._Phi_sparse.T).tocsr()
+        self.J_qP = -(self.gPhiT @ scipy.sparse.diags(self.areas)).tocsr()
+        if self.dense:
+            self.J_qP_dense = self.J_qP.toarray()
+            self.gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
+
+    def set_scales(self, gains, pressure_map=None, q_limit: float | None = None) -> None:
+        """A new p_ref (a new viscosity): the bushing's gains (solver.film.bushings.Bushing.shapes) and
+        what is built from them, the piezoviscous pressure map and the reduced pressure's bound (as in
+        the constructor); the compiled expression, the pattern and the state (u, q) stay, the cached
+        evaluation is dropped."""
+        self._set_gains(gains)
+        self.pressure_map, self.q_limit = pressure_map, q_limit
+        self.state_x = self.residual_x = self.k = self.slope = None
 
     def deformation(self, q: np.ndarray) -> np.ndarray:
         """W = Phi q at the film's dofs (/ c)."""

@@ -100,7 +100,7 @@ class FilmForms:
         self.l = compile_form(ufl.replace(residual, {P: ufl.zero()}) * dx)
         couette_j, couette_b, pressure_part = reynolds.shear_traction_integrands(p, g, space.roughness)
         if space.piezo is not None:
-            ratio = space.piezo.ratio(space.p_ref_in_forms * p, mod=ufl)
+            ratio = space.piezo.ratio(space.p_ref * p, mod=ufl)
             couette_j, couette_b = ratio * couette_j, ratio * couette_b
         # functional name -> (dimensionless integrand, SI scale's name, Jacobian row it adds to, group)
         self.outputs = {
@@ -115,7 +115,7 @@ class FilmForms:
         contact = space.contact
         if contact is not None:
             slip_reg = space.spec.slip_regularisation / space.scales.speed
-            P_c, tau_c, area = reynolds.asperity_integrands(g, contact, space.p_ref_in_forms, slip_reg)
+            P_c, tau_c, area = reynolds.asperity_integrands(g, contact, space.p_ref, slip_reg)
             c_over_R = space.bearing.clearance / space.bearing.radius
             self.outputs.update(
                 {

@@ -25,7 +25,6 @@ class FilmSolver(Protocol):
 
     has_history: bool  # its solves depend on committed states (solver.film.history)
     max_eccentricity_ratio: float  # |e| / c below which it is defined
-    follows_viscosity: bool  # set_scales can take a new viscosity in place
 
     def prepare(self, time_s: float | None, history: FilmHistory) -> None: ...  # rates from the history
     def solve(self) -> int: ...  # at the space's constants; the pressure in space.P; iterations

@@ -112,6 +112,14 @@ class Film:
         return self.space.dofs
 
     @property
+    def frame_angle(self) -> float:
+        """The angle [rad] by which the last solve's solution frame is turned from the bushing frame
+        (counter-clockwise): the angle of the maximum gap with the max-gap inlet (solver.film.frame),
+        0 with any other inlet or before a solve. A field of the solution at theta is at
+        theta + frame_angle in the bushing frame."""
+        return self._beta
+
+    @property
     def max_eccentricity_ratio(self) -> float:
         """|e| / c below which the film is defined: 1 when rigid; with an elastic bushing the pin may
         go further, into the deformed bushing."""
@@ -152,18 +160,12 @@ class Film:
         return self.history.before(time_s)
 
     # -- a new viscosity ----------------------------------------------------------------------------
-    @property
-    def follows_viscosity(self) -> bool:
-        """``set_viscosity`` works in place (rigid films); an elastic one must be built anew for now."""
-        return self.solver.follows_viscosity
-
     def set_viscosity(self, viscosity: float) -> None:
-        """The oil's viscosity [Pa s] anew: the scales, p_ref in the forms and what follows from them;
-        the film, its history and its warm start are kept (no new form, no recompilation)."""
+        """The oil's viscosity [Pa s] anew, for every film kind: the scales, p_ref in the forms and what
+        follows from them (the bounds and prescribed values; an elastic bushing's gains); the film, its
+        history and its warm start are kept (no new form, no recompilation)."""
         if not viscosity > 0:
             raise out_of_range("viscosity", viscosity, "> 0 Pa s")
-        if not self.solver.follows_viscosity:
-            raise NotImplementedError("set_viscosity of a film with an elastic bushing: build the film anew")
         self.space.set_scales(dataclasses.replace(self.space.bearing, viscosity=viscosity))
         self.forms.set_scales()
         self.solver.set_scales()

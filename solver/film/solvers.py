@@ -53,7 +53,6 @@ class ReynoldsVI:
 
     has_history = False
     max_eccentricity_ratio = 1.0
-    follows_viscosity = True
 
     def __init__(self, space: FilmSpace, forms: FilmForms):
         self.space, self.forms = space, forms
@@ -123,7 +122,6 @@ class RigidJFO:
 
     has_history = True
     max_eccentricity_ratio = 1.0
-    follows_viscosity = True
 
     def __init__(self, space: FilmSpace, forms: FilmForms):
         self.space, self.forms = space, forms
@@ -226,8 +224,6 @@ class CoupledFilm:
     solver.film.cavitation_jfo.JFORows)."""
 
     has_history = True
-    #: the bushing's gains and the coupled bounds are built from p_ref: not yet changed in place
-    follows_viscosity = False
 
     #: continuation of a failed elastic solve in 1/dt: from 1/(RATE_CONTINUATION_START s), by this factor
     RATE_CONTINUATION = 2.0
@@ -243,8 +239,8 @@ class CoupledFilm:
         k_theta, k_z, f = reynolds.reynolds_coefficients(g, space.roughness)
         P_c = ufl.as_ufl(0.0)
         if space.contact is not None:
-            # (p_ref as a number: the coupled film takes no new viscosity in place, follows_viscosity)
-            P_c = space.contact.pressure(g.H / space.params.S, mod=ufl) / space.scales.pressure
+            # (p_ref a Constant: a new viscosity changes its value, not the compiled expression)
+            P_c = space.contact.pressure(g.H / space.params.S, mod=ufl) / space.p_ref
         # expanded here: FFCx lowers dW/dtheta = grad(W).t inside its variable before it applies
         # derivatives, and the derivative with respect to the lowered variable comes out zero
         derivatives = [
@@ -259,9 +255,9 @@ class CoupledFilm:
             )
         ]
         coords = space.owned_coords
-        shapes = bushing.shapes(
-            np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, operator.nodal_areas, space.scales
-        )
+        # where the bushing's shapes are taken: the film's nodes (theta, z [m]) and their lumped areas
+        self.nodes = (np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, operator.nodal_areas)
+        shapes = bushing.shapes(*self.nodes, space.scales)
         self.ehd = CoupledNewton(
             operator,
             space.P,
@@ -394,9 +390,12 @@ class CoupledFilm:
         return out
 
     def set_scales(self) -> None:
-        # the bushing's gains and the coupled solve's bounds are built from p_ref (solver.film.ehd): a
-        # new coupled solve would be needed, which this film does not do yet
-        raise NotImplementedError("set_viscosity of a film with an elastic bushing: build the film anew")
+        """After a new p_ref: the bushing's gains (g is proportional to p_ref), the piezoviscous map and
+        bound in the coupled Newton, and the block's bounds and prescribed values."""
+        space = self.space
+        _, gains = self.bushing.shapes(*self.nodes, space.scales)
+        self.ehd.set_scales(gains, pressure_map=space.pressure_map(), q_limit=space.q_limit)
+        self.block.set_scales()
 
     def close(self) -> None:
         self.ehd.close()

@@ -102,13 +102,6 @@ class FilmSpace:
         )
         self.nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
-    @property
-    def p_ref_in_forms(self):
-        """p_ref as the forms take it: the Constant ``p_ref`` (a new viscosity changes its value), or, in
-        a deformable space, its number (the coupled solve takes no new viscosity in place, and with the
-        number its Jacobian is the same bit for bit as before p_ref became a Constant)."""
-        return self.p_ref if self.W is None else self.scales.pressure
-
     # -- pressures --------------------------------------------------------------------------------
     def reduced(self, p: float) -> float:
         """The film's unknown for a pressure p [Pa]: p, or the reduced pressure with piezoviscosity."""

@@ -34,6 +34,20 @@ def central_differences(model, base, steps, time_s=None) -> np.ndarray:
     return J_fd
 
 
+@pytest.fixture(scope="session")
+def coarse_eye(tmp_path_factory):
+    """A coarse finite-element compliance of the reference eye (36 x 3 loads, 0.6 R elements: seconds)."""
+    from solver.film.compliance import EyeGeometry, eye_compliance
+
+    R = 0.01
+    geometry = EyeGeometry(
+        bore_radius=R, width=2 * R, bushing_thickness=1.5e-3, eye_outer_radius=1.7 * R, shank_angle_deg=90.0
+    )
+    return eye_compliance(
+        geometry, n_theta=36, n_z=3, element_size=0.6 * R, cache_dir=tmp_path_factory.mktemp("compliance")
+    )
+
+
 @pytest.fixture
 def film_differences():
     """``central_differences(model, base, steps, time_s=None)`` as a fixture."""
@@ -41,23 +55,26 @@ def film_differences():
 
 
 #: the film kinds of the parametrised fixture: (bearing keywords, FilmSpec keywords)
-def _kinds():
-    from solver.film.bushings import WinklerLayer
+def _kinds(eye=None):
+    from solver.film.bushings import ModalCompliance, WinklerLayer
     from solver.film.surface import Surface
 
     rough = Surface(sigma_journal=0.3e-6, sigma_bushing=0.4e-6)
+    rough_keys = {"roughness": rough.roughness(), "contact": rough.contact()}
     winkler = WinklerLayer(thickness=1.5e-3, E=115e9, nu=0.33)
     flooded = {"inlet": "none", "cavitation_pressure": -0.5e5}
     return {
         "rigid-smooth": ({"inlet": "max-gap"}, {"quasi_static": True}),
-        "rigid-rough": ({"inlet": "none"}, {"roughness": rough.roughness(), "contact": rough.contact()}),
+        "rigid-rough": ({"inlet": "none"}, rough_keys),
         "winkler": ({"inlet": "none"}, {"bushing": winkler}),
         "jfo": (flooded, {"cavitation": "jfo"}),
         "elastic-jfo": (flooded, {"cavitation": "jfo", "bushing": winkler}),
+        # the coarse eye (coarse_eye), a few modes: the coupled Newton's dense borders and SchurLU
+        "fe-eye": ({"inlet": "none"}, {"bushing": eye and ModalCompliance(eye, 12), **rough_keys}),
     }
 
 
-FILM_KINDS = ["rigid-smooth", "rigid-rough", "winkler", "jfo", "elastic-jfo"]
+FILM_KINDS = ["rigid-smooth", "rigid-rough", "winkler", "jfo", "elastic-jfo", "fe-eye"]
 
 
 @pytest.fixture(params=FILM_KINDS)
@@ -70,7 +87,8 @@ def film(request):
     from solver.film.spec import FilmSpec
     from solver.film.types import Bearing
 
-    bearing_keys, spec_keys = _kinds()[request.param]
+    eye = request.getfixturevalue("coarse_eye") if request.param == "fe-eye" else None
+    bearing_keys, spec_keys = _kinds(eye)[request.param]
     bearing = Bearing(radius=0.01, width=0.02, clearance=10e-6, viscosity=0.01, **bearing_keys)
     spec = FilmSpec(bearing=bearing, omega_ref=200.0, mesh_size=0.12, **spec_keys)
     with make_film(spec, MPI.COMM_SELF) as model:

@@ -1,5 +1,5 @@
 """What every film kind must do, on one fixture parametrised over the kinds the factory builds
-(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO)."""
+(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO, the FE eye)."""
 
 from __future__ import annotations
 
@@ -38,3 +38,14 @@ def test_jacobian_matches_finite_differences(film, film_differences):
     for row in range(4):
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-4 * scale, (row, J[row], J_fd[row])
+
+
+@pytest.mark.serial
+def test_frame_angle_is_the_solution_frames_turn(film):
+    """``Film.frame_angle``: 0 before a solve and with any inlet but max-gap; with the max-gap inlet the
+    angle of the maximum gap (opposite the eccentricity), by which the last solve's frame is turned."""
+    assert film.frame_angle == 0.0
+    angle = 1.0
+    film.solve(Kinematics((0.5 * C * math.cos(angle), 0.5 * C * math.sin(angle)), (0.0, 0.0), OMEGA, 0.0))
+    expected = angle + math.pi if film.bearing.inlet == "max-gap" else 0.0
+    assert film.frame_angle == pytest.approx(expected, abs=1e-12)
