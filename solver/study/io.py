@@ -65,7 +65,7 @@ def write_film_fields(directory: Path, name: str, model) -> Path:
     The mesh is in metres in the bushing frame (the solution frame turned back, see
     solver.film.bearing). Collective on the model's communicator.
     """
-    series = FilmSeries(directory, name, model, frame_angle=getattr(model, "_beta", 0.0))
+    series = FilmSeries(directory, name, model, frame_angle=model.frame_angle)
     try:
         series.write(0.0)
         return series.close()
@@ -170,7 +170,7 @@ def gather_pressure(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     the whole width); None elsewhere."""
     n = model.V.dofmap.index_map.size_local
     coords = model.V.tabulate_dof_coordinates()[:n]
-    theta = (np.degrees(np.arctan2(coords[:, 1], coords[:, 0]) + getattr(model, "_beta", 0.0))) % 360.0
+    theta = (np.degrees(np.arctan2(coords[:, 1], coords[:, 0]) + model.frame_angle)) % 360.0
     z = coords[:, 2] * model.bearing.radius * 1e3
     p = model.P.x.array[:n] * model.scales.pressure * 1e-6
     if model.mesh_spec.half:  # the solved half z >= 0 and its mirror image
