@@ -143,12 +143,16 @@ def test_interrupted_jfo_run_resumes_with_its_film_fraction(jfo_run, tmp_path, m
     "old, new, message",
     [
         # the max-gap inlet turns the film with the pin, which a film fraction's history cannot follow
-        ('inlet = "none"', 'inlet = "max-gap"', "oil.cavitation = 'jfo' with oil.inlet = 'max-gap'"),
+        (
+            'inlet = "none"',
+            'inlet = "max-gap"',
+            "oil.inlet = 'max-gap' (--inlet max-gap) with oil.cavitation = 'jfo' (--cavitation jfo)",
+        ),
         # inlet none, no supply, edges at the cavitation pressure: no oil can enter but along the edges
         (
             "cavitation_pressure_bar = -0.9",
             "cavitation_pressure_bar = 0.0",
-            "oil.cavitation_pressure_bar = 0 is out of range",
+            "oil.cavitation_pressure_bar = 0 (--cavitation-pressure 0 Pa) with oil.cavitation = 'jfo'",
         ),
     ],
     ids=["max-gap", "sealed-edges"],
