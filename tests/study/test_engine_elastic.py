@@ -30,7 +30,7 @@ def winkler_run(tmp_path_factory):
     a ParaView snapshot at 380 deg whose deformation is recorded as it is written, and one at 390 deg
     whose film solve is made to fail (FilmNotConverged)."""
     from solver.errors import FilmNotConverged
-    from solver.film.bearing import FilmModel
+    from solver.film.model import Film
 
     case = make_case(
         tmp_path_factory.mktemp("ehd") / "winkler",
@@ -47,10 +47,10 @@ def winkler_run(tmp_path_factory):
         snapshots[name] = float(np.max(np.abs(model.fields_si()["deformation"].x.array)))
         return original(directory, name, model)
 
-    # FilmModel.start_from is called once per snapshot by write_fields (and by the run where an elastic
+    # Film.start_from is called once per snapshot by write_fields (and by the run where an elastic
     # solve fails from its warm start and is taken again from the committed state: not counted)
     starts, in_fields = [], [False]
-    start_from, solve, write_fields = FilmModel.start_from, FilmModel.solve, simulation.Run.write_fields
+    start_from, solve, write_fields = Film.start_from, Film.solve, simulation.Run.write_fields
 
     def counting(self, state):
         if in_fields[0]:
@@ -71,9 +71,9 @@ def winkler_run(tmp_path_factory):
 
     patch = pytest.MonkeyPatch()
     patch.setattr(io, "write_film_fields", recording)
-    patch.setattr(FilmModel, "start_from", counting)
+    patch.setattr(Film, "start_from", counting)
     patch.setattr(simulation.Run, "write_fields", writing)
-    patch.setattr(FilmModel, "solve", failing_second_snapshot)
+    patch.setattr(Film, "solve", failing_second_snapshot)
     try:
         summary = run_case(case, MPI.COMM_SELF)
     finally:
