@@ -24,7 +24,7 @@ from mpi4py import MPI
 import numpy as np
 
 from solver.film.bearing import Bearing, FilmModel, Kinematics
-from solver.film.ehd import WinklerLayer, bushing_model
+from solver.film.bushings import WinklerLayer, bushing_model
 from solver.film.surface import Surface
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0

@@ -58,8 +58,6 @@ import scipy.sparse
 import ufl
 from dolfinx import fem
 
-from solver.film.bushings import ModalCompliance, WinklerLayer, bushing_model
-from solver.film.coupled_lu import DampedLU, SchurLU
 from solver.film.tensors import MIDPOINT, MidpointOperator
 
 log = logging.getLogger(__name__)
@@ -371,11 +369,6 @@ def deformation_peak(W: np.ndarray, coords: np.ndarray, clearance: float) -> tup
 
 __all__ = [
     "CoupledNewton",
-    "DampedLU",
-    "ModalCompliance",
-    "SchurLU",
-    "WinklerLayer",
-    "bushing_model",
     "deformation_peak",
     "step_factor",
 ]

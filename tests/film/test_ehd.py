@@ -331,7 +331,7 @@ def test_fe_deformation_is_the_compliance_applied_to_the_nodal_forces(coarse_eye
     compliance matrix, T its interpolation to the film's nodes and F the nodal forces a_i p_i of the
     solved pressure (SI, formed here from the output fields): checks the modal coupling and its
     scaling against the compliance itself, to the VI tolerance (1e-8 of max w)."""
-    from solver.film.ehd import ModalCompliance
+    from solver.film.bushings import ModalCompliance
 
     bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
     elastic = ModalCompliance(coarse_eye, coarse_eye.size)
@@ -361,7 +361,8 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
     preconditioned with an earlier one (to 1e-12, so the Newton iterates do not change). A complement
     made non-finite before the third state's solve (as a failed factorisation leaves it) is formed
     anew: that solve's iterates do not change either."""
-    from solver.film.ehd import ModalCompliance, SchurLU
+    from solver.film.bushings import ModalCompliance
+    from solver.film.coupled_lu import SchurLU
 
     packages = []
     factor_film_block = SchurLU._factor_film_block

@@ -190,7 +190,7 @@ def test_pressure_torque_equals_the_quadrature_of_the_form(rough, elastic):
     dolfinx (solver.film.bearing.QuadratureFunctionals, the rule the forms use) at three solved states:
     equal to 1e-12 of its size, and not zero. With an elastic (Winkler) bushing the gap carries the
     deformation, which is not small there, and the flow's floor of the gap."""
-    from solver.film.ehd import WinklerLayer
+    from solver.film.bushings import WinklerLayer
     from solver.film.functionals import QuadratureFunctionals
     from solver.film.reynolds import shear_traction_integrands
 

@@ -250,7 +250,7 @@ T_BUSHING, E_BUSHING, NU_BUSHING = 1.5e-3, 115e9, 0.33  # the reference small en
 
 
 def _elastic(E, *, mesh_size=0.15, **bearing):
-    from solver.film.ehd import WinklerLayer
+    from solver.film.bushings import WinklerLayer
 
     b = Bearing(
         radius=R, width=B, clearance=C, viscosity=MU, cavitation_pressure=-0.5e5, inlet="none", **bearing

@@ -155,7 +155,7 @@ def test_the_checkpoint_keeps_the_deformation_history(tmp_path):
     written with the checkpoint and committed again to a new film model gives the next solve of the
     original model (1e-8 relative, the VI tolerance), where a model without it differs by more than 1 %."""
     from solver.film.bearing import Bearing, FilmModel, Kinematics
-    from solver.film.ehd import WinklerLayer
+    from solver.film.bushings import WinklerLayer
     from solver.study.io import Checkpoint, read_checkpoint, write_checkpoint
 
     R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
