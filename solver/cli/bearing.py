@@ -1,10 +1,14 @@
 """``python3 -m solver bearing``: one journal bearing, at a given eccentricity or under a load.
 
-The bushing is fixed and the journal turns at ``--speed`` rpm (counter-clockwise for positive
-speed). The load acts on the journal along the bushing's -y axis ("downwards"); ``--attitude`` places
-the journal centre that many degrees from the load line in the direction of rotation. With
-``--eccentricity-rate`` the journal also moves along the line of centres (pure squeeze if the speed
-is 0). All inputs and outputs are SI except the speed (rpm) and angles (degrees).
+The journal turns at ``--speed`` rpm and the bushing at ``--bushing-speed`` rpm (default 0; both
+counter-clockwise for positive speeds) about the fixed x, y axes in which the load and the journal
+centre are given (the bushing's own axes at the instant they coincide with them). The load acts on
+the journal along -y ("downwards"); ``--attitude`` places the journal centre that many degrees from
+the load line in the direction of the mean surface speed. The steady film is driven by the sum of the
+surface speeds (the wedge, R (omega_j + omega_b) / 2 relative to the load line), the Couette friction
+by their difference (the sliding speed R (omega_j - omega_b)). With ``--eccentricity-rate`` the journal
+also moves along the line of centres (pure squeeze if the speeds are 0). All inputs and outputs are SI
+except the speeds (rpm) and angles (degrees).
 
 An oil supply (a round hole, a rectangular axial groove or a full circumferential groove, centred on
 the mid-plane) is held at ``--supply-pressure``; it goes with ``--inlet none`` (its default then).
@@ -112,7 +116,7 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         "--speed",
         type=_number("--speed", allowed="a finite number of rpm"),
         default=0.0,
-        help="journal speed [rpm] (bushing fixed; default 0)",
+        help="journal speed [rpm] (default 0)",
     )
     g.add_argument(
         "--cavitation-pressure",
@@ -470,6 +474,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     mode.add_argument("--load", type=_number("--load", 0, allowed="> 0 N"), help="load on the journal [N]")
     parser.add_argument(
+        "--bushing-speed",
+        type=_number("--bushing-speed", allowed="a finite number of rpm"),
+        default=0.0,
+        help="bushing speed [rpm] through the fixed load line (default 0); the steady film carries load "
+        "by the sum of the speeds, the sliding (Couette friction) is their difference",
+    )
+    parser.add_argument(
         "--attitude",
         type=_number("--attitude", -360, 360, allowed="(-360, 360) deg"),
         default=None,
@@ -500,14 +511,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check(args) -> None:
     if args.clearance >= 0.1 * args.radius:
         raise InputError(f"--clearance = {args.clearance:g} is out of range (allowed: (0, 0.1 radius) m)")
-    if args.speed == 0 and args.eccentricity_rate == 0:
-        raise InputError("--speed = 0 and --eccentricity-rate = 0: nothing moves (allowed: either non-zero)")
-    if args.load is not None and args.speed == 0:
-        raise InputError("--speed = 0 with --load: a static load needs rotation (allowed: --speed != 0)")
+    _check_speeds(args)
     if args.attitude is not None and args.eccentricity is None:
         raise InputError("--attitude goes with --eccentricity (allowed: omit it with --load)")
     if args.eccentricity is not None and args.eccentricity == 0 and args.eccentricity_rate == 0:
         pass  # concentric rotation: zero load, still a valid question (friction, flow)
+
+
+def _check_speeds(args) -> None:
+    """The journal's and the bushing's speeds: something moves; a load needs a wedge (a sum of the
+    surface speeds); a turning bushing only where the quasi-static film is the steady one."""
+    if args.load is not None and args.speed == 0 and args.bushing_speed == 0:
+        raise InputError(
+            "--speed = 0 and --bushing-speed = 0 with --load: a static load needs rotation (allowed: "
+            "--speed != 0 or --bushing-speed != 0)"
+        )
+    if args.speed == 0 and args.bushing_speed == 0 and args.eccentricity_rate == 0:
+        raise InputError(
+            "--speed = 0, --bushing-speed = 0 and --eccentricity-rate = 0: nothing moves (allowed: one "
+            "non-zero)"
+        )
+    if args.load is not None and args.speed + args.bushing_speed == 0:
+        raise InputError(
+            f"--speed = {args.speed:g} and --bushing-speed = {args.bushing_speed:g} with --load: pure "
+            "counter-rotation (no mean surface speed, no wedge) carries no steady load (allowed: "
+            "--speed + --bushing-speed != 0)"
+        )
+    if args.bushing_speed != 0:
+        # In the bushing's frame the film's pattern turns at -omega_b; the quasi-static film keeps the
+        # eccentricity's rate but not the rates of the deformation or of the film fraction.
+        if args.elastic != "none":
+            raise InputError(
+                f"--bushing-speed = {args.bushing_speed:g} with --elastic {args.elastic} (allowed: "
+                "--bushing-speed 0, or --elastic none)"
+            )
+        if args.cavitation == "jfo":
+            raise InputError(
+                f"--bushing-speed = {args.bushing_speed:g} with --cavitation jfo (allowed: --bushing-speed "
+                "0, or --cavitation reynolds)"
+            )
 
 
 def resolve_viscosity(args) -> None:
@@ -583,8 +625,11 @@ def run(args, comm) -> int:
     bearing = bearing_from_args(args)
     surface = surface_from_args(args)
     omega = args.speed * 2 * math.pi / 60
+    omega_b = args.bushing_speed * 2 * math.pi / 60
+    wedge = omega + omega_b  # twice the mean surface speed / R, relative to the fixed load line
+    sliding = omega - omega_b  # the journal's speed relative to the bushing (Couette friction)
     rate = args.eccentricity_rate
-    omega_ref = abs(omega) if omega != 0 else abs(rate)
+    omega_ref = abs(wedge) if wedge != 0 else abs(sliding) if sliding != 0 else abs(rate)
     start = time.perf_counter()
     bushing, piezoviscosity = elastic_from_args(args, surface)
     spec = FilmSpec(  # the film's rules, before any mesh or compliance (solver.film_rules)
@@ -594,7 +639,7 @@ def run(args, comm) -> int:
         degree=args.degree,
         roughness=surface.roughness(),
         contact=surface.contact(),
-        slip_regularisation=1e-3 * args.radius * abs(omega) if omega else 1e-3,
+        slip_regularisation=1e-3 * args.radius * abs(sliding) if sliding else 1e-3,
         bushing=bushing,
         piezoviscosity=piezoviscosity,
         cavitation=args.cavitation,
@@ -610,7 +655,7 @@ def run(args, comm) -> int:
     residual = None
     if args.load is not None:
         W = (args.load * math.cos(load_angle), args.load * math.sin(load_angle))
-        eq = equilibrium(model, W, omega_journal=omega)
+        eq = equilibrium(model, W, omega_journal=omega, omega_bushing=omega_b, load_frame="space")
         kin, result, newton_iterations, residual = (
             eq.kinematics,
             eq.result,
@@ -618,14 +663,19 @@ def run(args, comm) -> int:
             eq.force_residual,
         )
     else:
-        sense = 1.0 if omega >= 0 else -1.0
+        sense = 1.0 if (wedge or sliding) >= 0 else -1.0
         angle = load_angle + sense * math.radians(args.attitude or 0.0)
         direction = (math.cos(angle), math.sin(angle))
-        kin = Kinematics(
+        # the journal centre fixed in space, the bushing turning through it (bushing frame at the
+        # instant its axes are the fixed ones): the engine's kinematics
+        kin = Kinematics.from_global(
             (args.eccentricity * c * direction[0], args.eccentricity * c * direction[1]),
             (rate * c * direction[0], rate * c * direction[1]),
-            omega,
+            (0.0, 0.0),
+            (0.0, 0.0),
             0.0,
+            omega,
+            omega_b,
         )
         result = model.solve(kin)
         newton_iterations = result.iterations
@@ -637,8 +687,12 @@ def run(args, comm) -> int:
         load_dir = math.atan2(-result.force[1], -result.force[0])
         attitude = abs((math.degrees(math.atan2(kin.ecc[1], kin.ecc[0]) - load_dir) + 180.0) % 360.0 - 180.0)
     psi = c / args.radius
-    speed_for_So = abs(omega) if omega != 0 else abs(rate)
-    So = load * psi**2 / (args.width * 2 * args.radius * args.viscosity * speed_for_So)
+    speed_for_So = abs(wedge) if wedge != 0 else abs(rate)
+    So = (
+        load * psi**2 / (args.width * 2 * args.radius * args.viscosity * speed_for_So)
+        if speed_for_So > 0
+        else math.nan  # pure counter-rotation at a given eccentricity: no wedge, no squeeze
+    )
     report = {
         "load_N": load,
         "attitude_deg": attitude,
@@ -668,7 +722,7 @@ def run(args, comm) -> int:
         "contact_area_ratio": result.contact_area_ratio,
         "friction_coefficient": abs(result.torque_journal) / (args.radius * load) if load > 0 else math.inf,
         "asperity_friction_torque_Nm": result.asperity_torque_journal,
-        "power_loss_W": abs(result.torque_journal * omega),
+        "power_loss_W": abs(result.torque_journal * omega + result.torque_bushing * omega_b),
         "h_min_over_sigma": result.h_min_over_sigma if surface.rough else None,
         # elastic bushing and piezoviscous oil
         "viscosity_Pa_s": args.viscosity,
@@ -685,10 +739,16 @@ def run(args, comm) -> int:
         # cavitation
         "cavitation": args.cavitation,
         "cavitated_area_ratio": result.cavitated_area_ratio,
+        # the bushing's motion (speeds [rpm]; surface speeds [m/s], relative to the fixed load line)
+        "speed_rpm": args.speed,
+        "bushing_speed_rpm": args.bushing_speed,
+        "sliding_speed_m_per_s": args.radius * sliding,
+        "entrainment_speed_m_per_s": args.radius * wedge / 2,
     }
     if residual is not None:
         report["force_residual_N"] = residual
     report["attitude_deg"] = None if math.isnan(attitude) else attitude
+    report["sommerfeld_So"] = None if math.isnan(So) else So
     if args.output is not None:
         out = args.output
         if comm.rank == 0:
@@ -719,7 +779,9 @@ def _print_table(report: dict, stream) -> None:
         ("Sommerfeld number So", report["sommerfeld_So"], ""),
         ("peak pressure", report["p_max_Pa"] / 1e6, "MPa"),
         ("minimum film thickness", report["h_min_m"] * 1e6, "um"),
+        ("sliding speed", report["sliding_speed_m_per_s"], "m/s"),
         ("friction torque on journal", report["friction_torque_Nm"], "N m"),
+        ("friction torque on bushing", report["friction_torque_bushing_Nm"], "N m"),
         ("side flow", report["side_flow_m3_per_s"] * 6e4, "l/min"),
         ("dofs", report["dofs"], ""),
         ("Newton iterations", report["newton_iterations"], ""),

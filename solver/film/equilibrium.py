@@ -17,6 +17,7 @@ def equilibrium(
     *,
     omega_journal: float,
     omega_bushing: float = 0.0,
+    load_frame: str = "bushing",
     tol: float = 1e-7,
     max_iterations: int = 60,
     guess: tuple[float, float] | None = None,
@@ -31,6 +32,12 @@ def equilibrium(
 
     Args:
         load: external load on the journal, bushing frame [N].
+        load_frame: "bushing": the load and the journal centre are fixed in the bushing frame (they
+            turn with the bushing; the wedge is driven by omega_journal - omega_bushing); "space": they
+            are fixed in space and the bushing turns through them (in the bushing frame the eccentricity
+            turns at -omega_bushing, Kinematics.from_global; the wedge is driven by omega_journal +
+            omega_bushing). ``load`` and the result's eccentricity are then in the bushing frame at
+            the instant its axes coincide with the fixed ones.
         tol: relative tolerance on the force residual, |F + W| <= tol |W|.
         guess: starting eccentricity [m]; default eps = 0.5, 50 deg ahead of the load line.
 
@@ -41,10 +48,14 @@ def equilibrium(
     W_norm = float(np.linalg.norm(W))
     if not W_norm > 0:
         raise out_of_range("load", W_norm, "> 0 N")
+    if load_frame not in ("bushing", "space"):
+        raise out_of_range("load_frame", repr(load_frame), "'bushing' or 'space'")
+    turning = omega_bushing if load_frame == "space" else 0.0  # the eccentricity turns at -turning
+    wedge = omega_journal + omega_bushing if load_frame == "space" else omega_journal - omega_bushing
     c, limit = model.bearing.clearance, model.max_eccentricity_ratio
     s_max = -math.log(1 - MAX_ECCENTRICITY)
     if guess is None:
-        angle = math.atan2(W[1], W[0]) + math.copysign(math.radians(50), omega_journal - omega_bushing or 1.0)
+        angle = math.atan2(W[1], W[0]) + math.copysign(math.radians(50), wedge or 1.0)
         guess = (0.5 * c * math.cos(angle), 0.5 * c * math.sin(angle))
     eps0 = min(max(math.hypot(*guess) / c, 1e-3), MAX_ECCENTRICITY * limit)
     x = np.array([-math.log(1 - eps0 / limit), math.atan2(guess[1], guess[0])])  # (s, phi)
@@ -55,7 +66,8 @@ def equilibrium(
 
     def residual(x_vec):
         _, e_vec = ecc(x_vec)
-        kin = Kinematics((float(e_vec[0]), float(e_vec[1])), (0.0, 0.0), omega_journal, omega_bushing)
+        rate = (turning * float(e_vec[1]), -turning * float(e_vec[0]))  # -omega S e (from_global)
+        kin = Kinematics((float(e_vec[0]), float(e_vec[1])), rate, omega_journal, omega_bushing)
         res = model.solve(kin)
         return kin, res, np.asarray(res.force) + W
 
@@ -66,7 +78,9 @@ def equilibrium(
         eps, _ = ecc(x)
         # d e / d(s, phi) = c [(eps_lim - eps) u, eps u_perp]
         u, u_perp = np.array([math.cos(x[1]), math.sin(x[1])]), np.array([-math.sin(x[1]), math.cos(x[1])])
-        J = model.jacobian().force_ecc @ (c * np.column_stack([(limit - eps) * u, eps * u_perp]))
+        jac = model.jacobian()
+        dF_de = jac.force_ecc + turning * jac.matrix[:2, 2:4] @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+        J = dF_de @ (c * np.column_stack([(limit - eps) * u, eps * u_perp]))
         step = -np.linalg.solve(J, r)
         lam = 1.0
         while True:
