@@ -612,6 +612,17 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
     FieldSpec(
         "oil",
+        "cavitated_shear",
+        "cavitated_shear",
+        str,
+        "film-fraction",
+        choices=("film-fraction", "full"),
+        doc="cavitation = jfo: the Couette shear in the cavitated zone, film-fraction (theta mu U / h: only "
+        "the oil streamers shear, as in Elrod's model; the default) or full (mu U / h, as in a full film: "
+        "the friction before 2026-11-27). The Reynolds film (cavitation = reynolds) always shears in full",
+    ),
+    FieldSpec(
+        "oil",
         "inlet",
         "inlet",
         str,
@@ -1042,6 +1053,7 @@ class Oil:
     pressure_viscosity: float = _field("oil", "pressure_viscosity")  # 1/Pa
     cavitation_pressure: float = _field("oil", "cavitation_pressure")  # Pa, gauge
     cavitation: str = "reynolds"  # reynolds | jfo (solver.film.jfo)
+    cavitated_shear: str = "film-fraction"  # film-fraction | full (solver.film.forms)
     inlet: str = "none"  # one of INLETS
     supply_hole_angle: float = _field("oil", "supply_hole_angle")  # rad, rod frame
     supply_hole_diameter: float = _field("oil", "supply_hole_diameter")  # m

@@ -22,6 +22,7 @@ CAVITATION_LAWS = ("reynolds", "jfo")
 BUSHINGS = ("none", "winkler", "fe")
 INLETS = ("max-gap", "none")
 TRANSPORTS = ("limited", "upwind")
+CAVITATED_SHEARS = ("film-fraction", "full")
 
 #: how a choice is named: case key, command-line flag
 _CAVITATION = "oil.cavitation = {0!r} (--cavitation {0})"
@@ -46,6 +47,7 @@ def check_film(
     cavitation_pressure: float = 0.0,
     degree: int = 1,
     transport: str = "limited",
+    cavitated_shear: str = "film-fraction",
     ranks: int = 1,
     quasi_static: bool = False,
     sigmas: tuple[float, ...] = (),
@@ -60,6 +62,7 @@ def check_film(
         cavitation_pressure: p_cav [Pa gauge].
         degree: the pressure's polynomial degree.
         transport: the JFO film fraction's transport, "limited" or "upwind".
+        cavitated_shear: the JFO film's Couette shear in the cavitated zone, "film-fraction" or "full".
         ranks: the processes the film runs on.
         quasi_static: the film is solved without time (no history is ever committed): the max-gap inlet
             is then allowed with a history (its frame turns with the eccentricity, which a committed
@@ -70,6 +73,7 @@ def check_film(
     _choice("bushing", bushing, BUSHINGS, "small_end.elastic", "--elastic")
     _choice("inlet", inlet, INLETS, "oil.inlet", "--inlet")
     _choice("transport", transport, TRANSPORTS, "solver.film_fraction_transport", "transport")
+    _choice("cavitated_shear", cavitated_shear, CAVITATED_SHEARS, "oil.cavitated_shear", "--cavitated-shear")
     if degree not in (1, 2):
         raise InputError(f"degree = {degree} (--degree {degree}) is out of range (allowed: 1 or 2)")
     special = [

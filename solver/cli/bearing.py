@@ -132,6 +132,13 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         "quasi-static solution; one rank, degree 1)",
     )
     g.add_argument(
+        "--cavitated-shear",
+        choices=("film-fraction", "full"),
+        default="film-fraction",
+        help="with --cavitation jfo: the Couette shear in the cavitated zone, film-fraction (theta mu U / h: "
+        "only the oil streamers shear; default) or full (mu U / h, the friction before 2026-11-27)",
+    )
+    g.add_argument(
         "--inlet",
         choices=("max-gap", "none"),
         default=None,
@@ -643,6 +650,7 @@ def run(args, comm) -> int:
         bushing=bushing,
         piezoviscosity=piezoviscosity,
         cavitation=args.cavitation,
+        cavitated_shear=args.cavitated_shear,
         quasi_static=True,
     )
     spec.check(ranks=comm.size)
@@ -744,6 +752,7 @@ def run(args, comm) -> int:
         "bushing_speed_rpm": args.bushing_speed,
         "sliding_speed_m_per_s": args.radius * sliding,
         "entrainment_speed_m_per_s": args.radius * wedge / 2,
+        "cavitated_shear": args.cavitated_shear,
     }
     if residual is not None:
         report["force_residual_N"] = residual

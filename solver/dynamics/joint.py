@@ -458,6 +458,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
         cavitation=oil.cavitation,
         transport=solver.film_fraction_transport,
+        cavitated_shear=oil.cavitated_shear,
     )
     from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
 

@@ -8,6 +8,16 @@ parts. ``values`` gives every output in SI at the solved state, ``jacobian`` the
 from the pressure's (and deformation's) sensitivities. SI scales are read from the space's current
 scales at each call, so a new viscosity needs no new form.
 
+Friction of a cavitated film. In the mass-conserving film's cavitated zone the gap holds oil streamers
+that fill the fraction theta of it (DESIGN 8); only they shear, so the Couette shear is weighted by the
+film fraction, ``theta mu (U1 - U2)/h`` (with the shear-stress factors on rough surfaces), as in Elrod's
+model (Elrod 1981; DESIGN 3.4: the film is taken as full "unless a mass-conserving model says
+otherwise"). theta = 1 in the full film, and in the cavitated zone p = p_cav, so the pressure part
+``h/2 dp/dx`` needs no weight. The film fraction is a P1 Function set from the solver's solution
+(``set_film_fraction``); the Jacobian adds the torques' change through it (``dF``). The Reynolds VI
+film has no film fraction and keeps the full-film shear; a JFO film with ``cavitated_shear = "full"``
+(solver.film.spec) keeps it too (the behaviour before 2026-11-27).
+
 Flows. The side flow (out of both edges) and the supply flow (from the supply into the film) are the
 consistent fluxes of the discrete equation: ``r(P; w)`` with w = 1 on the edge (supply) dofs and 0
 elsewhere, i.e. the sum of the residuals of those dofs, in m^3/s. Their sum over all dofs is the
@@ -43,6 +53,12 @@ class FilmForms:
 
     def __init__(self, space: FilmSpace):
         self.space = space
+        # the mass-conserving film's fraction theta weights the Couette shear (module docstring); None:
+        # the full-film shear everywhere (the Reynolds film; a JFO film with cavitated_shear "full")
+        self.film_fraction = None
+        if space.spec.cavitation == "jfo" and space.spec.cavitated_shear == "film-fraction":
+            self.film_fraction = fem.Function(space.V, name="film_fraction")
+            self.film_fraction.x.array[:] = 1.0
         self._build(space)
         self.A = fem_petsc.assemble_matrix(self.a, bcs=space.bcs)  # (its layout: the operator's)
         self.A.assemble()
@@ -102,6 +118,9 @@ class FilmForms:
         if space.piezo is not None:
             ratio = space.piezo.ratio(space.p_ref * p, mod=ufl)
             couette_j, couette_b = ratio * couette_j, ratio * couette_b
+        fraction = self.film_fraction
+        if fraction is not None:  # only the oil streamers shear in the cavitated zone (Elrod 1981)
+            couette_j, couette_b = fraction * couette_j, fraction * couette_b
         # functional name -> (dimensionless integrand, SI scale's name, Jacobian row it adds to, group)
         self.outputs = {
             "hydro_x": (-p * g.normal[0], "force", "force_x", "moment"),
@@ -152,11 +171,14 @@ class FilmForms:
         scalars.update({name: (e, "contact") for name, e in extra.items()})
         self.scalars = functionals_by_group(space.mesh, scalars, groups)
         # the midpoint-rule functionals independent of P (the Couette torques): the tensor operator
-        # can integrate them in its own evaluation of the coefficients
+        # can integrate them in its own evaluation of the coefficients, which comes before the solve,
+        # so not those weighted by the film fraction (integrated at the solved state with the others)
         self.midpoint_integrands = {
             name: e
             for name, (e, group) in scalars.items()
-            if group == "film" and is_zero(ufl.derivative(e, p, v))
+            if group == "film"
+            and is_zero(ufl.derivative(e, p, v))
+            and (fraction is None or is_zero(ufl.derivative(e, fraction, v)))
         }
         variables = list(g.variables().values())
         self.variable_names = list(g.variables())
@@ -166,6 +188,7 @@ class FilmForms:
         explicit: dict[tuple[int, int, str], tuple[object, str]] = {}
         gradients: list[tuple[int, object, object]] = []
         w_gradients: list[tuple[int, object, object]] = []
+        f_gradients: list[tuple[int, object, object]] = []
         # each (row, group) has the outputs of one SI scale: the integrands are summed unscaled and the
         # scale, read at each Jacobian (a new viscosity changes it), multiplies their integrals
         # (the explicit derivatives and the gradients have the scale at build in their integrands, as
@@ -176,6 +199,7 @@ class FilmForms:
         self.built_scales = self.scales()
         gradient_scales: list[str] = []
         w_gradient_scales: list[str] = []
+        f_gradient_scales: list[str] = []
         for i, row in enumerate(JACOBIAN_ROWS):
             for group, (measure, _) in groups.items():
                 members = [
@@ -200,12 +224,18 @@ class FilmForms:
                     if not is_zero(gradient_W):
                         w_gradients.append((i, gradient_W, measure))
                         w_gradient_scales.append(scale)
+                if fraction is not None:  # dE/dtheta: the Couette torques weighted by the film fraction
+                    gradient_f = ufl.derivative(at_build, fraction, v)
+                    if not is_zero(gradient_f):
+                        f_gradients.append((i, gradient_f, measure))
+                        f_gradient_scales.append(scale)
         # the residual derivatives and the gradients in one kernel (they share H and the flow factors)
         self.n_inputs = len(variables)
         self.gradient_rows = [(i, name) for (i, _, _), name in zip(gradients, gradient_scales)]
         self.w_gradient_rows = [(i, name) for (i, _, _), name in zip(w_gradients, w_gradient_scales)]
+        self.f_gradient_rows = [(i, name) for (i, _, _), name in zip(f_gradients, f_gradient_scales)]
         self.jacobian_vectors = BlockedVectors(
-            space.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients]
+            space.V, v, dr_integrands + [(e, m) for _, e, m in gradients + w_gradients + f_gradients]
         )
         self.explicit = functionals_by_group(space.mesh, explicit, groups)
         # Side and supply flows: the consistent flux r(P; w) with w = 1 on the edge / supply dofs.
@@ -310,22 +340,40 @@ class FilmForms:
             values[row] = sum(values[k] for k, (_, _, r, _) in self.outputs.items() if r == row)
         return values
 
-    def residual_derivatives(self) -> tuple[list, list, list]:
-        """(dr/dtheta per input, the rows' dE/dP, the rows' dE/dW) as PETSc vectors at the current
-        state (reused between calls), dr zero on the prescribed dofs."""
+    def set_film_fraction(self, theta: np.ndarray | None) -> None:
+        """The solved film fraction (owned dofs) that weights the Couette shear; a no-op when the shear
+        is not weighted (``film_fraction`` None) or the film has no fraction (None)."""
+        if self.film_fraction is None or theta is None:
+            return
+        self.film_fraction.x.array[: len(theta)] = theta
+        self.film_fraction.x.scatter_forward()
+
+    def residual_derivatives(self) -> tuple[list, list, list, list]:
+        """(dr/dtheta per input, the rows' dE/dP, the rows' dE/dW, the rows' dE/d(film fraction)) as
+        PETSc vectors at the current state (reused between calls), dr zero on the prescribed dofs."""
         vectors = self.jacobian_vectors()
-        n_in, n_grad = self.n_inputs, len(self.gradient_rows)
-        dr, gradients, w_gradients = vectors[:n_in], vectors[n_in : n_in + n_grad], vectors[n_in + n_grad :]
+        n_in, n_grad, n_w = self.n_inputs, len(self.gradient_rows), len(self.w_gradient_rows)
+        split = n_in + n_grad + n_w
+        dr, gradients = vectors[:n_in], vectors[n_in : n_in + n_grad]
+        w_gradients, f_gradients = vectors[n_in + n_grad : split], vectors[split:]
         for vec in dr:
             fem_petsc.set_bc(vec, self.space.bcs, scale=0.0)
-        return dr, gradients, w_gradients
+        return dr, gradients, w_gradients, f_gradients
 
     def jacobian(
-        self, dP: list, dW: list | None, gradients: list, w_gradients: list, in_contact
+        self,
+        dP: list,
+        dW: list | None,
+        gradients: list,
+        w_gradients: list,
+        in_contact,
+        dF: list | None = None,
+        f_gradients: list = (),
     ) -> np.ndarray:
         """The Jacobian rows (4) per dimensionless input (eps, deps, U_mean, U_half_diff), SI, in the
-        solution frame, from the true pressure's sensitivities dP (PETSc vectors) and the deformation's
-        dW (arrays; None: rigid)."""
+        solution frame, from the true pressure's sensitivities dP (PETSc vectors), the deformation's
+        dW (arrays; None: rigid) and the film fraction's dF (arrays; None: not available, and the
+        Couette torques' change through the film fraction is left out)."""
         J = np.zeros((4, self.n_inputs))
         scale = self.scales()
         for keys, functionals in self.explicit:
@@ -341,6 +389,10 @@ class FilmForms:
         for (i, name), gradient in zip(self.w_gradient_rows, w_gradients):  # through the deformation
             values = gradient.getArray(readonly=True)
             J[i] += np.array([values @ d for d in dW]) * (scale[name] / self.built_scales[name])
+        if dF is not None:
+            for (i, name), gradient in zip(self.f_gradient_rows, f_gradients):  # through the film fraction
+                values = gradient.getArray(readonly=True)
+                J[i] += np.array([values @ d for d in dF]) * (scale[name] / self.built_scales[name])
         return J
 
     def close(self) -> None:

@@ -30,7 +30,8 @@ class FilmSolver(Protocol):
     def solve(self) -> int: ...  # at the space's constants; the pressure in space.P; iterations
     def fall_back(self) -> bool: ...  # after a failed solve: True if a retry may succeed
     def turn(self, turn: Any, delta: float) -> None: ...  # its own state in a turned frame (P aside)
-    def sensitivities(self, dr: list) -> tuple[list, list | None]: ...  # (dP vectors, dW arrays)
+    def sensitivities(self, dr: list) -> tuple[list, list | None, list | None]: ...  # (dP, dW, dtheta)
+    def film_fraction(self) -> np.ndarray | None: ...  # theta of the last solve (owned dofs); None: none
     def state(self) -> np.ndarray | None: ...  # the history state of the last solve, a copy
     def start_from(self, state: np.ndarray) -> None: ...  # the next solve's warm start
     def h_min(self, kin_ecc: np.ndarray) -> float: ...  # m, of the last solve

@@ -439,6 +439,12 @@ class JFOSolver:
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
         """d(P - P_cav)/dc = -diag(u > 0) J^-1 dr/dc at the last solution, with J its Newton
         Jacobian (built again if the solution's partition is not the last one's)."""
+        return [pressure for pressure, _ in self.split_sensitivities(dr)]
+
+    def split_sensitivities(self, dr: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(d(P - P_cav)/dc, dtheta/dc) per dr/dc at the last solution: du/dc = -J^-1 dr/dc split by
+        the partition, the pressure's part on the pressurised nodes (u > 0) and the film fraction's on
+        the others (theta = 1 + u there; zero on the prescribed dofs, whose rows of dr are zero)."""
         x = self.u.vector
         partition = x.getArray(readonly=True) > 0.0
         ksp = self.snes.getKSP()
@@ -450,7 +456,8 @@ class JFOSolver:
         for d in dr:
             rhs.setArray(-np.asarray(d))
             ksp.solve(rhs, du)
-            out.append(np.where(partition, du.getArray(readonly=True), 0.0))
+            values = du.getArray(readonly=True)
+            out.append((np.where(partition, values, 0.0), np.where(partition, 0.0, values)))
         rhs.destroy()
         du.destroy()
         return out

@@ -235,6 +235,7 @@ class Film:
                 self.solver.turn(self._turn, delta)
         self.set_kinematics(in_frame(kin, beta))
         iterations = self.solver.solve()
+        self.forms.set_film_fraction(self.solver.film_fraction())  # (weights the Couette shear: JFO)
         if space.piezo is not None:
             p = space.true_pressure(space.P.x.array)
             if not np.all(np.isfinite(p)):
@@ -328,13 +329,13 @@ class Film:
 
     def _jacobian(self) -> FilmJacobian:
         space, s = self.space, self.scales
-        dr, gradients, w_gradients = self.forms.residual_derivatives()
-        dP, dW = self.solver.sensitivities(dr)
+        dr, gradients, w_gradients, f_gradients = self.forms.residual_derivatives()
+        dP, dW, dF = self.solver.sensitivities(dr)
         if space.piezo is not None:  # of the true pressure: dp = (mu(p) / mu0) dq node by node
             slope = space.piezo.ratio(space.pressure.x.array * s.pressure)
             for vec in dP:
                 vec.getArray()[:] *= slope[: len(vec.getArray())]
-        J = self.forms.jacobian(dP, dW, gradients, w_gradients, self._in_contact)
+        J = self.forms.jacobian(dP, dW, gradients, w_gradients, self._in_contact, dF, f_gradients)
         for vec in dP:
             vec.destroy()
         # Relative speed Omega = omega_j - omega_b: U_mean = Omega / (2 omega_ref), U_half_diff = -U_mean.

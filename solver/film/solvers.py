@@ -17,6 +17,8 @@ import logging
 import math
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.linalg
 import ufl
 from ufl.algorithms import expand_derivatives
 
@@ -81,8 +83,11 @@ class ReynoldsVI:
     def turn(self, turn, delta: float) -> None:
         pass
 
-    def sensitivities(self, dr: list) -> tuple[list, None]:
-        return self.vi.sensitivities(dr), None
+    def sensitivities(self, dr: list) -> tuple[list, None, None]:
+        return self.vi.sensitivities(dr), None, None
+
+    def film_fraction(self) -> None:
+        return None
 
     def state(self) -> None:
         return None
@@ -179,11 +184,16 @@ class RigidJFO:
     def turn(self, turn, delta: float) -> None:
         pass
 
-    def sensitivities(self, dr: list) -> tuple[list, None]:
+    def sensitivities(self, dr: list) -> tuple[list, None, list]:
+        """(dP vectors, None, the film fraction's arrays)."""
         n = self.space.n
         rate = self.transport.rate
         dr_u = self.transport.derivatives.kinematic_derivatives(self.jfo.u.x.array[:n], rate)
-        return _as_vectors(dr[0], self.jfo.sensitivities(dr_u)), None
+        split = self.jfo.split_sensitivities(dr_u)
+        return _as_vectors(dr[0], [dP for dP, _ in split]), None, [dtheta for _, dtheta in split]
+
+    def film_fraction(self) -> np.ndarray:
+        return self.solution.theta
 
     def state(self) -> np.ndarray:
         return self.jfo.u.x.array[: self.space.n].copy()
@@ -337,13 +347,30 @@ class CoupledFilm:
                 ) from None
         return iterations
 
-    def sensitivities(self, dr: list) -> tuple[list, list]:
-        """Pressure and deformation together (solver.film.ehd)."""
+    def sensitivities(self, dr: list) -> tuple[list, list, list | None]:
+        """Pressure and deformation together (solver.film.ehd), and the film fraction's when the forms
+        weight the Couette shear by it (solver.film.forms; None otherwise).
+
+        The cavitation block returns the pressure's part of du only (u > 0); the film fraction's (theta
+        = 1 + u where u <= 0) comes from a second solve with the coupled Jacobian at the solution (the
+        block's sensitivities leave the Newton's cached state there), by scipy's sparse LU: one more
+        factorisation per Jacobian, until the block returns both parts of du."""
         ehd = self.ehd
         names = list(self.space.geometry.variables())
-        d = ehd.sensitivities(ehd.residual_derivatives(self.block.film_derivatives(dr), names))
+        rhs = ehd.residual_derivatives(self.block.film_derivatives(dr), names)
+        d = ehd.sensitivities(rhs)
         n = ehd.n
-        return _as_vectors(dr[0], [d_k[:n] for d_k in d]), [ehd.deformation(d_k[n:]) for d_k in d]
+        dF = None
+        if self.forms.film_fraction is not None:
+            lu = scipy.sparse.linalg.splu(ehd.jacobian_matrix("csc"))
+            cavitated = self.block.film_state()[:n] <= 0.0
+            dF = [np.where(cavitated, lu.solve(-np.asarray(r))[:n], 0.0) for r in rhs]
+        return _as_vectors(dr[0], [d_k[:n] for d_k in d]), [ehd.deformation(d_k[n:]) for d_k in d], dF
+
+    def film_fraction(self) -> np.ndarray | None:
+        """The block's film fraction (its nodal field; None for the Reynolds rows)."""
+        fields = self.block.nodal_fields()
+        return fields["film_fraction"][1] if "film_fraction" in fields else None
 
     def state(self) -> np.ndarray:
         return self.ehd.state()

@@ -39,6 +39,9 @@ class FilmSpec:
         cavitation: "reynolds" (the VI p >= p_cav) or "jfo" (mass-conserving, solver.film.jfo: serial
             P1; the film fraction is film state, committed like the deformation).
         transport: the JFO film fraction's transport, "limited" or "upwind" (solver.film.transport).
+        cavitated_shear: the JFO film's Couette shear in the cavitated zone: "film-fraction" (theta mu U /
+            h: only the oil streamers shear; solver.film.forms) or "full" (mu U / h, the full film's,
+            as the Reynolds film; the behaviour before 2026-11-27). No effect on a Reynolds film.
         quasi_static: solved without time (the bearing command, equilibria): no history is committed,
             so the max-gap inlet is allowed with a history (solver.film_rules).
     """
@@ -56,6 +59,7 @@ class FilmSpec:
     piezoviscosity: Any = None
     cavitation: str = "reynolds"
     transport: str = "limited"
+    cavitated_shear: str = "film-fraction"
     quasi_static: bool = False
 
     def __post_init__(self) -> None:
@@ -88,6 +92,7 @@ class FilmSpec:
             cavitation_pressure=self.bearing.cavitation_pressure,
             degree=self.degree,
             transport=self.transport,
+            cavitated_shear=self.cavitated_shear,
             ranks=ranks,
             quasi_static=self.quasi_static,
             sigmas=tuple(x.sigma for x in (self.roughness, self.contact) if x is not None),
