@@ -9,7 +9,9 @@ Reference small end (DESIGN 7): pin radius R = 10 mm, width 20 mm, bronze bushin
 - set-up: mesh + stiffness + Cholesky factorisation, then the hat loads and the n_theta n_z
   back-substitutions (what ``eye_compliance`` does when nothing is cached), dofs;
 - the truncation error of the displacement (max norm, relative) against the number of modes m for
-  the reference loads (uniform; 30 deg cos^2 bumps opposite the shank and 90 deg from it);
+  the reference loads (uniform; 30 deg cos^2 bumps opposite the shank and 90 deg from it), in the eigen
+  basis (modes of G) and in the layer basis (the bushing's local part plus modes of the remainder), and
+  the modes the layer basis chooses for the default tolerance;
 - the order-of-magnitude check of DESIGN 7: the compression of the bushing alone (on an eye made
   1000 times stiffer) under 240 MPa, bore minus interface at the mid-plane opposite the shank,
   against the Winkler layer (~2 um); then the bore displacement of the reference eye under the
@@ -27,10 +29,11 @@ from mpi4py import MPI
 
 import numpy as np
 
-from solver.film.bushings import winkler_coefficient
+from solver.film.bushings import FEEye, winkler_coefficient
 from solver.film.compliance import (
     DEFAULT_ELEMENT_SIZE,
     DEFAULT_MODES,
+    DEFAULT_TOLERANCE,
     ElasticEye,
     EyeGeometry,
     reference_loads,
@@ -77,11 +80,23 @@ def main() -> None:
     )
 
     loads = reference_loads(compliance)
-    print(f"\ntruncation error (max norm, %) against the number of modes m (default {DEFAULT_MODES}):")
-    print(f"{'m':>5}" + "".join(f"{name:>10}" for name in loads))
-    for m in (8, 16, 24, 32, 48, 64, 72, 96, 128):
-        errors = compliance.truncation_error(m, np.column_stack(list(loads.values())))
-        print(f"{m:5d}" + "".join(f"{100 * e:10.2f}" for e in errors))
+    F = np.column_stack(list(loads.values()))
+    local = FEEye(REFERENCE).layer.coefficient
+    eigen, layer = compliance.truncation_errors(F), compliance.truncation_errors(F, local)
+    print(f"\ntruncation error (max norm, %) against the modes m (eigen: the old default {DEFAULT_MODES}):")
+    print(
+        f"{'m':>5}"
+        + "".join(f"{'eigen ' + name:>16}" for name in loads)
+        + "".join(f"{'layer ' + name:>16}" for name in loads)
+    )
+    for m in (0, 8, 16, 24, 32, 40, 48, 64, 72, 96, 128):
+        print(f"{m:5d}" + "".join(f"{100 * e:16.2f}" for e in (*eigen[m], *layer[m])))
+    start = time.perf_counter()
+    m = compliance.modes_for(DEFAULT_TOLERANCE, F, local)
+    print(
+        f"layer basis (k = {local:.4g} m/Pa): {m} modes for {DEFAULT_TOLERANCE:.0%} "
+        f"(chosen in {time.perf_counter() - start:.2f} s)"
+    )
 
     g = REFERENCE
     winkler = winkler_coefficient(g.bushing_thickness, g.E_bushing, g.nu_bushing) * PRESSURE

@@ -442,13 +442,36 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
     FieldSpec(
         "small_end",
+        "compliance_basis",
+        "compliance_basis",
+        str,
+        "layer",
+        choices=("layer", "eigen"),
+        doc="fe: the compliance's basis (docs/models.md): layer (the bushing's local compression node by "
+        "node plus modes of the rest, the eye's bending) or eigen (modes of the whole compliance, the basis "
+        "before the layer one; with compliance_modes = 72 it gives the earlier answers)",
+    ),
+    FieldSpec(
+        "small_end",
         "compliance_modes",
         "compliance_modes",
         int,
-        72,
-        minimum=1,
+        0,
+        minimum=0,
         maximum=360,
-        doc="fe: modes of the compliance kept (its truncation error is in run.log)",
+        doc="fe: modes kept; 0: the fewest whose truncation error is within compliance_tolerance (the "
+        "modes and the error are in run.log)",
+    ),
+    _f(
+        "small_end",
+        "compliance_tolerance",
+        "compliance_tolerance",
+        0.01,
+        1.0,
+        0.0,
+        1.0,
+        doc="fe, compliance_modes = 0: the largest truncation error of the displacement under the reference "
+        "loads (uniform, 30 deg bumps; max norm, relative)",
     ),
     # [oil]
     _f(
@@ -1017,7 +1040,9 @@ class SmallEnd:
     E_eye: float = _field("small_end", "E_eye")  # Pa
     nu_eye: float = _field("small_end", "nu_eye")
     shank_half_angle: float = _field("small_end", "shank_half_angle")  # rad
-    compliance_modes: int = 72
+    compliance_basis: str = _field("small_end", "compliance_basis")
+    compliance_modes: int = _field("small_end", "compliance_modes")  # 0: from compliance_tolerance
+    compliance_tolerance: float = _field("small_end", "compliance_tolerance")
 
     def __post_init__(self) -> None:
         _check_section(self, "small_end")

@@ -412,7 +412,23 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
         help="fe: half angle of that arc (default 30 deg)",
     )
     g.add_argument(
-        "--compliance-modes", type=int, default=72, help="fe: modes of the compliance kept (default 72)"
+        "--compliance-basis",
+        choices=("layer", "eigen"),
+        default="layer",
+        help="fe: layer (the bushing's local compression node by node plus modes of the rest; default) or "
+        "eigen (modes of the whole compliance, the earlier basis)",
+    )
+    g.add_argument(
+        "--compliance-modes",
+        type=int,
+        default=0,
+        help="fe: modes of the compliance kept (default 0: the fewest within --compliance-tolerance)",
+    )
+    g.add_argument(
+        "--compliance-tolerance",
+        type=_number("--compliance-tolerance", 0, 1, allowed="(0, 1)"),
+        default=0.01,
+        help="fe: the truncation error under the reference loads the modes are chosen for (default 0.01)",
     )
     g.add_argument(
         "--piezoviscosity",
@@ -447,6 +463,8 @@ def elastic_from_args(args, surface):
         shank_half_angle_deg=args.shank_half_angle,
         modes=args.compliance_modes,
         shank_angle_deg=args.shank_angle,
+        tolerance=args.compliance_tolerance,
+        basis=args.compliance_basis,
     )
     return elastic, viscosity_law(args.piezoviscosity, args.pressure_viscosity, args.viscosity)
 
@@ -462,9 +480,10 @@ def _check_elastic(args, comm) -> None:
                 f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
                 f"bushing thickness = {args.radius + args.bushing_thickness:g} m)"
             )
-        if not 1 <= args.compliance_modes <= 1000:
+        if not 0 <= args.compliance_modes <= 1000:
             raise InputError(
-                f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [1, 1000])"
+                f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [0, 1000], 0: from "
+                "--compliance-tolerance)"
             )
 
 

@@ -446,6 +446,8 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         nu_bushing=surf.nu_bushing,
         shank_half_angle_deg=math.degrees(se.shank_half_angle),
         modes=se.compliance_modes,
+        tolerance=se.compliance_tolerance,
+        basis=se.compliance_basis,
     )
     spec = FilmSpec(
         bearing=bearing,

@@ -2,8 +2,8 @@
 
 It checks the specification on the communicator (solver.film_rules: elastic and JFO films run on one
 rank), builds the bushing (a WinklerLayer as it is; an FEEye's compliance, from its disk cache when
-built before), the shared discretisation (solver.film.space, solver.film.forms) and then ONE film solver
-(solver.film.solvers) for the cavitation law and the bushing:
+built before, in its basis), the shared discretisation (solver.film.space, solver.film.forms) and then
+ONE film solver (solver.film.solvers) for the cavitation law and the bushing:
 
 =================  ==================  ==========================================
 cavitation         bushing             film solver
@@ -25,8 +25,9 @@ from solver.film.spec import FilmSpec
 
 
 def _bushing(spec: FilmSpec, comm):
-    """The bushing object of the spec (solver.film.bushings): None (rigid), a WinklerLayer or a
-    ModalCompliance (an FEEye's compliance, built here)."""
+    """The bushing object of the spec (solver.film.bushings): None (rigid), a WinklerLayer, or an FEEye's
+    compliance built here in its basis (the layer basis: a Superposed layer and modes; the eigen basis: a
+    ModalCompliance)."""
     bushing = spec.bushing
     build = getattr(bushing, "build", None)  # FEEye: data until here
     return build(comm) if build is not None else bushing
