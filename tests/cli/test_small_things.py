@@ -98,14 +98,17 @@ def _with(args: list[str], flag: str, value: str) -> list[str]:
                 "0.01",
                 "--load",
                 "100",
+                "--points",
+                "2",
             ],
             ["--radius = 12 is out of range", "--radius 0.012"],
         ),
     ],
     ids=["radius-mm", "clearance-mm", "sigma-um", "below-roughness", "width-mm", "bushing", "stribeck"],
 )
-def test_an_implausible_bearing_is_one_line_naming_the_flag_and_the_unit(command, args, fragments):
-    assert_one_line_error(run_cli(command, *args), *fragments)
+def test_an_implausible_bearing_is_one_line_naming_the_flag_and_the_unit(tmp_path, command, args, fragments):
+    # (in tmp_path: were it not refused, stribeck would write ./stribeck)
+    assert_one_line_error(run_cli(command, *args, cwd=tmp_path), *fragments)
 
 
 @pytest.mark.serial
@@ -146,12 +149,17 @@ def test_the_jfo_rule_names_the_flag_on_the_command_line():
 
 
 @pytest.mark.serial
-def test_stribeck_uses_the_cavitation_law():
+def test_stribeck_uses_the_cavitation_law(tmp_path):
     """stribeck took --cavitation and swept the Reynolds film whatever it said: the JFO film's rule (no
     supply, edges at p_cav = 0, inlet none) now refuses it as the bearing command does, before any mesh."""
     no_speed = GOOD[: GOOD.index("--speed")]
     assert_one_line_error(
-        run_cli("stribeck", *no_speed, "--load", "100", "--cavitation", "jfo", "--inlet", "none"),
+        run_cli(
+            "stribeck",
+            *no_speed,
+            *["--load", "100", "--cavitation", "jfo", "--inlet", "none", "--points", "2"],
+            cwd=tmp_path,  # (were it not refused: ./stribeck)
+        ),
         "(--cavitation-pressure 0 Pa)",
         "(--cavitation jfo)",
     )
