@@ -28,7 +28,14 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
-from solver.film_rules import check_film
+from solver.film_rules import (
+    CASE_LENGTHS,
+    CLEARANCE_RATIO_RANGE,
+    RADIUS_RANGE,
+    WIDTH_RATIO_RANGE,
+    check_film,
+    check_geometry,
+)
 from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
 #: the small end's oil inlets (``oil.inlet``): the last three are an oil supply at ``oil.supply_pressure_bar``
@@ -379,8 +386,27 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="crankcase pressure under the piston, absolute",
     ),
     # [small_end]
-    _f("small_end", "pin_radius_mm", "pin_radius", 10.0, 1e-3, 0.0, unit="mm", doc="piston pin radius R"),
-    _f("small_end", "width_mm", "width", 20.0, 1e-3, 0.0, unit="mm", doc="bushing width B"),
+    _f(
+        "small_end",
+        "pin_radius_mm",
+        "pin_radius",
+        10.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"piston pin radius R; in [{RADIUS_RANGE[0] * 1e3:g}, {RADIUS_RANGE[1] * 1e3:g}] "
+        "(a plausible bearing)",
+    ),
+    _f(
+        "small_end",
+        "width_mm",
+        "width",
+        20.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"bushing width B; B / R in [{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}]",
+    ),
     _f(
         "small_end",
         "clearance_um",
@@ -389,7 +415,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         1e-6,
         0.0,
         unit="um",
-        doc="radial clearance c; < pin radius",
+        doc=f"radial clearance c; c / R in [{CLEARANCE_RATIO_RANGE[0]:g}, {CLEARANCE_RATIO_RANGE[1]:g}] "
+        "and c > the composite roughness (surface)",
     ),
     FieldSpec(
         "small_end",
@@ -412,7 +439,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         1e-3,
         0.0,
         unit="mm",
-        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing)",
+        doc="bushing wall thickness (moduli: surface.E_bushing_GPa, surface.nu_bushing); with an elastic "
+        "bushing <= pin radius",
     ),
     _f(
         "small_end",
@@ -1176,6 +1204,8 @@ class Case:
             ``directory / "results"``).
         description: free text.
         engine, gas, small_end, oil, surface, solver: the sections.
+        defaulted: the sections the case file does not have (their defaults are used: all of them
+            for an empty file, which is the reference engine); not a parameter of the case.
     """
 
     name: str
@@ -1187,6 +1217,7 @@ class Case:
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
     solver: Solver = dataclasses.field(default_factory=Solver)
+    defaulted: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
@@ -1198,6 +1229,15 @@ class Case:
             supply=self.oil.inlet not in ("none", "max-gap"),
             cavitation_pressure=self.oil.cavitation_pressure,
             transport=self.solver.film_fraction_transport,
+        )
+        # a bearing no engine has is a length in the wrong unit (solver.film_rules, as the bearing command)
+        check_geometry(
+            radius=self.small_end.pin_radius,
+            width=self.small_end.width,
+            clearance=self.small_end.clearance,
+            sigma=self.surface.sigma,
+            bushing_thickness=None if self.small_end.elastic == "none" else self.small_end.bushing_thickness,
+            names=CASE_LENGTHS,
         )
 
 
@@ -1330,7 +1370,18 @@ def load_case(path: str | Path) -> Case:
                 arguments["peak_pressure"] = None
             arguments.setdefault("model", "trace" if "pressure_file" in arguments else "single-zone")
         values[section] = cls(**arguments)
-    return Case(directory=directory, **values)
+    defaulted = tuple(section for section in SECTIONS if section not in data)
+    return Case(directory=directory, defaulted=defaulted, **values)
+
+
+def defaults_note(case: Case) -> str | None:
+    """The log line that says which sections came from the defaults (None: the case file has them all)."""
+    if not case.defaulted:
+        return None
+    sections = ", ".join(f"[{section}]" for section in case.defaulted)
+    if len(case.defaulted) == len(SECTIONS):
+        return f"the case file has no section: every default is used, the reference engine ({sections})"
+    return f"sections not in the case file, defaults used: {sections}"
 
 
 def case_attributes(case: Case) -> dict[str, object]:

@@ -5,7 +5,9 @@ A film is a cavitation law (Reynolds VI or JFO), a bushing (rigid, Winkler layer
 combinations cannot work; ``check_film`` refuses them with one line that names the case key and the
 command-line flag of each choice, so a case file and the ``bearing`` command get the same message.
 ``default_inlet`` is the inlet a user gets without asking: the max-gap line where the model allows it,
-``none`` where it does not.
+``none`` where it does not. ``check_geometry`` refuses a bearing no engine has (a radius, clearance or
+width that is most likely a length in the wrong unit), naming the case key or the flag (``CASE_LENGTHS``,
+``FLAG_LENGTHS``) and the value the user probably meant.
 
 Plain Python, below solver.case in the import layers (pyproject.toml): the case loader calls it when
 it reads a case, solver.film.spec.FilmSpec when a film is specified (the command line builds one
@@ -14,7 +16,9 @@ before any mesh or compliance), and the factory once more with the communicator'
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 
 from solver.errors import InputError
 
@@ -122,3 +126,139 @@ def default_inlet(*, cavitation: str, bushing: str, supply: bool, quasi_static: 
     if supply or bushing == "fe" or (history and not quasi_static):
         return "none"
     return "max-gap"
+
+
+#: the plausible bearing: radius [m], clearance / radius, width / radius (closed ranges). A bearing
+#: outside them is most likely a length in the wrong unit (a clearance in mm given as um: h_min goes to
+#: zero and the film solver crawls).
+RADIUS_RANGE = (1e-4, 1.0)
+CLEARANCE_RATIO_RANGE = (1e-4, 1e-2)
+WIDTH_RATIO_RANGE = (0.05, 5.0)
+#: a composite roughness [m] that a unit slip could have meant (only for the message's hint)
+SIGMA_HINT_RANGE = (1e-8, 1e-5)
+
+#: the units a length may have been given in by mistake: name, metres per unit
+_UNITS = (("m", 1.0), ("mm", 1e-3), ("um", 1e-6))
+
+
+@dataclasses.dataclass(frozen=True)
+class Length:
+    """How a length is named to the user: its case key or command-line flag and the unit it takes.
+
+    Attributes:
+        name: ``small_end.clearance_um`` or ``--clearance``.
+        unit: ``"m"``, ``"mm"`` or ``"um"``.
+        flag: a command-line flag (``--x 0.1``) rather than a case key (``x = 0.1``).
+        composite: a length made of several settings (the composite roughness): a value is then
+            written ``0.3 um``.
+    """
+
+    name: str
+    unit: str
+    flag: bool = False
+    composite: bool = False
+
+    @property
+    def scale(self) -> float:
+        """Metres per unit."""
+        return dict(_UNITS)[self.unit]
+
+    def value(self, value_si: float) -> str:
+        """``small_end.clearance_um = 0.012`` or ``--clearance = 1.2e-08``: the value as given."""
+        return f"{self.name} = {value_si / self.scale:g}"
+
+    def setting(self, value_si: float) -> str:
+        """How the user writes this SI value: ``--radius 0.012`` or ``small_end.clearance_um = 12``."""
+        if self.composite:
+            return f"{value_si / self.scale:g} {self.unit}"
+        return f"{self.name} {value_si / self.scale:g}" if self.flag else self.value(value_si)
+
+
+#: the case's names (solver.case) and the bearing and stribeck commands' flags (solver.cli.bearing)
+CASE_LENGTHS = {
+    "radius": Length("small_end.pin_radius_mm", "mm"),
+    "width": Length("small_end.width_mm", "mm"),
+    "clearance": Length("small_end.clearance_um", "um"),
+    "sigma": Length("sqrt(surface.sigma_pin_um^2 + surface.sigma_bushing_um^2)", "um", composite=True),
+    "bushing_thickness": Length("small_end.bushing_thickness_mm", "mm"),
+}
+FLAG_LENGTHS = {
+    "radius": Length("--radius", "m", flag=True),
+    "width": Length("--width", "m", flag=True),
+    "clearance": Length("--clearance", "m", flag=True),
+    "sigma": Length("sqrt(--sigma-journal^2 + --sigma-bushing^2)", "m", flag=True, composite=True),
+    "bushing_thickness": Length("--bushing-thickness", "m", flag=True),
+}
+
+
+def _unit_slip(length: Length, value_si: float, plausible: Callable[[float], bool]) -> str:
+    """``; if you meant 12 mm: --radius 0.012``: the first other unit in which the number the user
+    typed is plausible, or "" when there is none."""
+    typed = value_si / length.scale
+    for unit, scale in _UNITS:
+        if unit != length.unit and plausible(typed * scale):
+            return f"; if you meant {typed:g} {unit}: {length.setting(typed * scale)}"
+    return ""
+
+
+def _range(length: Length, value_si: float, low: float, high: float, what: str, hint: bool = True) -> None:
+    """InputError unless low <= value_si <= high [m] (to rounding: 1e-9); ``what`` says where the range
+    comes from; ``hint``: name the unit in which the number typed would be inside."""
+
+    def inside(x: float) -> bool:
+        return low * (1 - 1e-9) <= x <= high * (1 + 1e-9)
+
+    if inside(value_si):
+        return
+    raise InputError(
+        f"{length.value(value_si)} is out of range (allowed: [{low / length.scale:g}, "
+        f"{high / length.scale:g}] {length.unit}{what}{_unit_slip(length, value_si, inside) if hint else ''})"
+    )
+
+
+def check_geometry(
+    *,
+    radius: float,
+    width: float,
+    clearance: float,
+    sigma: float = 0.0,
+    bushing_thickness: float | None = None,
+    names: dict[str, Length] = CASE_LENGTHS,
+) -> None:
+    """Raise InputError (one line) unless the bearing is plausible: a radius in RADIUS_RANGE, a clearance
+    and a width in CLEARANCE_RATIO_RANGE and WIDTH_RATIO_RANGE of it, a clearance above the composite
+    roughness, an elastic bushing no thicker than the radius. The message names the key or flag
+    (``names``: CASE_LENGTHS or FLAG_LENGTHS), the value, the allowed range and, when the number typed
+    would be plausible in another unit, that unit and the setting it means.
+
+    Args:
+        radius: journal (pin) radius R [m].
+        width: bearing width B [m].
+        clearance: radial clearance c [m].
+        sigma: composite roughness sqrt(sigma_1^2 + sigma_2^2) [m]; 0: smooth surfaces (not checked).
+        bushing_thickness: the elastic bushing's wall thickness [m]; None: rigid (not checked).
+        names: how each length is named to the user.
+    """
+    _range(names["radius"], radius, *RADIUS_RANGE, "")
+    low, high = CLEARANCE_RATIO_RANGE
+    _range(
+        names["clearance"],
+        clearance,
+        low * radius,
+        high * radius,
+        f", clearance / radius in [{low:g}, {high:g}]",
+    )
+    low, high = WIDTH_RATIO_RANGE
+    _range(names["width"], width, low * radius, high * radius, f", width / radius in [{low:g}, {high:g}]")
+    if sigma > 0 and not clearance > sigma:
+        rough = names["sigma"]
+        slip = _unit_slip(
+            rough, sigma, lambda s: clearance > s and SIGMA_HINT_RANGE[0] <= s <= SIGMA_HINT_RANGE[1]
+        )
+        raise InputError(
+            f"{names['clearance'].value(clearance)} is below the composite roughness {rough.value(sigma)} "
+            f"(allowed: clearance > composite roughness{slip})"
+        )
+    if bushing_thickness is not None:
+        # (no unit hint: a bushing of any small thickness is inside)
+        _range(names["bushing_thickness"], bushing_thickness, 0.0, radius, ", at most the radius", hint=False)

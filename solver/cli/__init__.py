@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import re
 import sys
 from collections.abc import Sequence
 
@@ -44,8 +45,18 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+#: a negative number, in scientific notation too (``-0.9e5``, ``-1E-3``, ``-.5``): argparse's own pattern
+#: (Python 3.11: ``-1``, ``-0.5``) takes ``--cavitation-pressure -0.9e5`` for two flags
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one-line InputErrors instead of usage + exit."""
+    """ArgumentParser whose errors are one-line InputErrors instead of usage + exit, and which reads a
+    negative number in scientific notation as a value (no option of ours looks like a number)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str):  # noqa: D102 - argparse API
         raise InputError(f"{self.prog}: {message}")

@@ -24,9 +24,17 @@ import sys
 import time
 from pathlib import Path
 
+from solver.case import FIELDS
 from solver.errors import InputError
 from solver.film.surface import Surface
-from solver.film_rules import default_inlet
+from solver.film_rules import (
+    CLEARANCE_RATIO_RANGE,
+    FLAG_LENGTHS,
+    RADIUS_RANGE,
+    WIDTH_RATIO_RANGE,
+    check_geometry,
+    default_inlet,
+)
 from solver.study import io
 
 
@@ -63,16 +71,23 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
     """Bearing geometry, oil and inlet (shared with the stribeck command)."""
     g = parser.add_argument_group("bearing")
     g.add_argument(
-        "--radius", required=True, type=_number("--radius", 0, allowed="> 0 m"), help="journal radius R [m]"
+        "--radius",
+        required=True,
+        type=_number("--radius", 0, allowed="> 0 m"),
+        help=f"journal radius R [m] (SI: 12 mm is 0.012; in [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}])",
     )
     g.add_argument(
-        "--width", required=True, type=_number("--width", 0, allowed="> 0 m"), help="bearing width B [m]"
+        "--width",
+        required=True,
+        type=_number("--width", 0, allowed="> 0 m"),
+        help=f"bearing width B [m] (B / R in [{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}])",
     )
     g.add_argument(
         "--clearance",
         required=True,
         type=_number("--clearance", 0, allowed="> 0 m"),
-        help="radial clearance c [m]",
+        help=f"radial clearance c [m] (c / R in [{CLEARANCE_RATIO_RANGE[0]:g}, "
+        f"{CLEARANCE_RATIO_RANGE[1]:g}], above the composite roughness)",
     )
     g.add_argument(
         "--viscosity",
@@ -262,16 +277,23 @@ def resolve_supply(args) -> None:
         )
 
 
+def _case_default(key: str):
+    """The default of a case's [surface] key (solver.case.FIELDS), in its unit."""
+    return next(spec.default for spec in FIELDS if spec.section == "surface" and spec.key == key)
+
+
 SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
     "sigma_journal": (
         "--sigma-journal",
         _number("--sigma-journal", 0, low_open=False, allowed=">= 0 m"),
-        "Rq roughness of the journal [m] (default 0: smooth)",
+        f"Rq roughness of the journal [m] (default 0: smooth, unlike an engine case, whose pin has "
+        f"surface.sigma_pin_um = {_case_default('sigma_pin_um'):g} um)",
     ),
     "sigma_bushing": (
         "--sigma-bushing",
         _number("--sigma-bushing", 0, low_open=False, allowed=">= 0 m"),
-        "Rq roughness of the bushing [m] (default 0: smooth)",
+        f"Rq roughness of the bushing [m] (default 0: smooth, unlike an engine case, whose bushing has "
+        f"surface.sigma_bushing_um = {_case_default('sigma_bushing_um'):g} um)",
     ),
     "peklenik_gamma": (
         "--peklenik-gamma",
@@ -334,7 +356,9 @@ SURFACE_FLAGS = {  # Surface field -> (flag, argparse type, help)
 def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     """Roughness, asperity and material options (solver.film.surface.Surface; defaults: the reference
     engine)."""
-    g = parser.add_argument_group("surfaces (mixed lubrication; rough when a sigma > 0)")
+    g = parser.add_argument_group(
+        "surfaces (mixed lubrication: rough when a sigma > 0; smooth by default, unlike an engine case)"
+    )
     for field, (flag, type_, help_text) in SURFACE_FLAGS.items():
         g.add_argument(flag, dest=field, type=type_, default=None, help=help_text)
     g.add_argument(
@@ -530,13 +554,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     n.add_argument("--json", action="store_true", help="print one JSON object")
     n.add_argument(
-        "--output", type=Path, default=None, help="directory for the XDMF field and the PNG pressure map"
+        "--output",
+        type=Path,
+        default=None,
+        help="directory for the XDMF fields (for ParaView: the half film z >= 0, the film being symmetric "
+        "about the mid-plane) and the PNG pressure map (the whole width)",
+    )
+
+
+def check_plausible(args) -> None:
+    """A bearing no engine has is most likely a length in the wrong unit (the command takes metres):
+    solver.film_rules.check_geometry, the rules a case's [small_end] meets, naming the flags."""
+    elastic = getattr(args, "elastic", "none")
+    check_geometry(
+        radius=args.radius,
+        width=args.width,
+        clearance=args.clearance,
+        sigma=surface_from_args(args).sigma,
+        bushing_thickness=None if elastic == "none" else args.bushing_thickness,
+        names=FLAG_LENGTHS,
     )
 
 
 def _check(args) -> None:
-    if args.clearance >= 0.1 * args.radius:
-        raise InputError(f"--clearance = {args.clearance:g} is out of range (allowed: (0, 0.1 radius) m)")
+    check_plausible(args)
     _check_speeds(args)
     if args.attitude is not None and args.eccentricity is None:
         raise InputError("--attitude goes with --eccentricity (allowed: omit it with --load)")

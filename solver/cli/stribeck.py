@@ -25,6 +25,7 @@ from solver.cli.bearing import (
     add_geometry_arguments,
     add_surface_arguments,
     bearing_from_args,
+    check_plausible,
     resolve_supply,
     resolve_viscosity,
     surface_from_args,
@@ -109,6 +110,7 @@ def run(args, comm) -> int:
     """Sweep the speeds, write netCDF and PNG; returns the exit status."""
     resolve_viscosity(args)
     resolve_supply(args)
+    check_plausible(args)
     if args.points < 2:
         raise InputError(f"--points = {args.points} is out of range (allowed: >= 2)")
     if not args.speed_min < args.speed_max:
@@ -132,6 +134,7 @@ def run(args, comm) -> int:
         contact=surface.contact(),
         mesh_size=args.mesh_size,
         slip_regularisation=1e-3 * slowest_sliding,
+        cavitation=args.cavitation,
         quasi_static=True,
     )
     spec.check(ranks=comm.size)
@@ -166,6 +169,7 @@ def run(args, comm) -> int:
             "temperature_C": "" if args.temperature is None else args.temperature,
             "sigma_m": surface.sigma,
             "asperity_friction": surface.asperity_friction,
+            "cavitation": args.cavitation,
             "wall_time_s": time.perf_counter() - start,
         },
     )
@@ -183,6 +187,7 @@ def run(args, comm) -> int:
             "png": str(args.output / "stribeck.png"),
             "viscosity_Pa_s": args.viscosity,
             "temperature_C": args.temperature,
+            "cavitation": args.cavitation,
         }
         print(json.dumps(summary) if args.json else "\n".join(f"{k:36s} {v}" for k, v in summary.items()))
     return 0

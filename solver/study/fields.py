@@ -89,4 +89,13 @@ def write_fields(
         k = int(np.argmin(np.abs(angles - math.degrees(angle))))
         if solve_at(k):
             paths.append(io.write_film_fields(directory, f"film_{angles[k]:05.1f}deg", model))
+    if paths:
+        log.info(
+            "ParaView fields: %s in %s (%s, metres)",
+            ", ".join(path.name for path in paths),
+            directory,
+            "the half film z >= 0 of the symmetric film: mirror it about z = 0 for the whole width"
+            if model.mesh_spec.half
+            else "the whole width",
+        )
     return paths

@@ -36,7 +36,7 @@ from mpi4py import MPI
 import numpy as np
 
 from solver import __version__
-from solver.case import Case, case_attributes, load_case
+from solver.case import Case, case_attributes, defaults_note, load_case
 from solver.dynamics.engine import build_mechanism, engine_from_case, simulate_ideal
 from solver.dynamics.joint import JOINTS, joint_from_case
 from solver.errors import InputError
@@ -146,6 +146,8 @@ def run_case(
     run = None
     try:
         log.info("case %s: joint %s, solver %s", case.name, joint, __version__)
+        if defaults_note(case):
+            log.info(defaults_note(case))
         ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))
         run = Run(case, comm, joint)
         if joint == "ideal":  # kinematically determined: the ideal cycle is the answer
