@@ -62,6 +62,16 @@ VARIABLES: dict[str, tuple[str, str]] = {
         "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)",
     ),
     "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
+    "deformation_max_angle_deg": (
+        "degree",
+        "deformation_max_angle in degrees, [0, 360) from the rod frame's +x axis towards +y (as h_min_angle)",
+    ),
+    "h_min_angle": (
+        "degree",
+        "bushing (rod frame) angle where the film is thinnest, [0, 360) from the rod frame's +x axis "
+        "(along the rod, as ecc_x) towards +y (as ecc_y): along the eccentricity for a rigid bushing, "
+        "the deformed film's thinnest point for an elastic one; NaN for the ideal joint",
+    ),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
     "side_flow": ("m3 s-1", "oil volume flow out of both bushing edges (film joints; NaN otherwise)"),
     "supply_flow": (
@@ -101,7 +111,13 @@ VARIABLES: dict[str, tuple[str, str]] = {
 
 
 #: The variables build_dataset derives from the others (and the ideal cycle) rather than from each state
-DERIVED_VARIABLES = ("ideal_pin_force_x", "ideal_pin_force_y", "eps", "h_min_over_sigma")
+DERIVED_VARIABLES = (
+    "ideal_pin_force_x",
+    "ideal_pin_force_y",
+    "eps",
+    "h_min_over_sigma",
+    "deformation_max_angle_deg",
+)
 #: The variables of each output state (solver.study.outputs); NaN where a state has no value for one
 #: (the film variables of an ideal joint, a joint that does not report it, a film that failed to solve)
 STATE_VARIABLES = tuple(name for name in VARIABLES if name not in DERIVED_VARIABLES)
@@ -196,6 +212,7 @@ def build_dataset(
     data["ideal_pin_force_y"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_y)
     data["eps"] = np.hypot(data["ecc_x"], data["ecc_y"]) / case.small_end.clearance
     data["h_min_over_sigma"] = data["h_min"] / case.surface.sigma
+    data["deformation_max_angle_deg"] = np.degrees(np.asarray(data["deformation_max_angle"], dtype=float))
     variables = {
         name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
         for name, (u, ln) in VARIABLES.items()
