@@ -23,6 +23,9 @@ Per case, on every rank of its group:
 - rank 0 of the group writes ``results/case_status.json`` (status, error, wall time, ranks, host,
   metrics). Each case has exactly one group, so no two ranks ever write the same file.
 
+Each record says whether the case ran in this invocation (``ran_this_invocation``; a case finished
+before is ``skipped`` in the records and ``complete`` in the summary).
+
 At the end world rank 0 gathers the records and writes ``<output>/batch_status.json`` and the summary
 (solver.study.summary: ``summary.nc`` and ``summary_<metric>.png``). A shard (``shard=(i, n)``: the cases
 i, i + n, ... of the list, for Slurm job arrays) writes ``batch_status.shard-<i>-of-<n>.json`` and no
@@ -271,6 +274,7 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
                 error="",
                 finished=previous.get("finished", ""),
                 wall_time_s=previous.get("wall_time_s"),
+                ran_this_invocation=False,
             )
             return record
         return None
@@ -300,6 +304,7 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
         ranks=group.size,
         host=socket.gethostname(),
         solver_version=__version__,
+        ran_this_invocation=True,
     )
     if error:
         record["traceback"] = error[2]
@@ -571,7 +576,7 @@ def collect(plan: BatchPlan, *, plot_metric: str = "h_min_min", summary: bool = 
     records = []
     for case_dir in plan.cases:
         status = read_case_status(case_dir) or {}
-        record = {"case": case_dir.name, "directory": str(case_dir)}
+        record = {"case": case_dir.name, "directory": str(case_dir), "ran_this_invocation": False}
         if is_finished(case_dir):
             record.update(status="complete", error="")
             for key in ("finished", "wall_time_s", "ranks", "host", "metrics"):
