@@ -4,7 +4,9 @@ PATH is a case directory (with ``case.toml``), a directory of case directories, 
 (solver.study.sweep). Run it under ``mpirun -n N`` (or ``srun``); see solver.study.batch for the scheduling,
 resume and failure rules and solver.study.summary for the summary. Exit status: 0 when every case is
 complete (run now or finished before), 1 when a case failed (or, with ``--summary-only``, has not
-run), 2 for bad input (a bad PATH or sweep file; a bad case is a failed case, not bad input).
+run), 2 for bad input (a bad PATH or sweep file; a bad case is a failed case, not bad input), 130 when
+interrupted (Ctrl-C; SIGTERM, which ``mpirun`` sends every rank when it is interrupted): one line on
+world rank 0, ``batch_status.json`` written, finished cases and checkpoints kept (solver.cli.interrupts).
 
 This module imports nothing heavy at import time (the CLI imports it to build its parser).
 """
@@ -16,6 +18,7 @@ import logging
 import sys
 from pathlib import Path
 
+from solver.cli.interrupts import interrupted, sigterm_interrupts
 from solver.errors import InputError
 from solver.study import batch
 
@@ -123,6 +126,25 @@ def _log_other_ranks(world) -> None:
     logger.addHandler(handler)
 
 
+def describe_interruption(err: BaseException, output: Path) -> str:
+    """The line of an interrupted batch (world rank 0): where its case stopped, the counts, the status
+    file, and that a rerun resumes."""
+    if not isinstance(err, batch.BatchInterrupted):  # after the cases: writing the summary
+        return f"batch in {output}: while writing the summary; rerun the same command to write it"
+    records = err.records
+    counts = {state: sum(r["status"] == state for r in records) for state in batch.STATES}
+    finished = counts["complete"] + counts["skipped"]
+    text = f"batch: {finished} of {len(records)} case(s) finished"
+    if counts["failed"] + counts["invalid"]:
+        text += f", {counts['failed'] + counts['invalid']} failed"
+    if counts["interrupted"]:
+        text += f", {counts['interrupted']} interrupted or not run"
+    if err.record is not None:  # this rank's own case
+        text += f" ({err.record['error'].removeprefix('interrupted: ')})"
+    text += f"; {err.status_file} written" if err.status_file else "; no batch_status.json written"
+    return text + "; rerun the same command to resume"
+
+
 def run(args: argparse.Namespace, comm) -> int:
     """Run the batch on ``comm`` (the world); the exit status (same on every rank)."""
     shard = parse_shard(args.shard)
@@ -150,16 +172,20 @@ def run(args: argparse.Namespace, comm) -> int:
         return comm.bcast(status, root=0)
 
     _log_other_ranks(comm)
-    result = batch.run_batch(
-        plan,
-        comm,
-        ranks_per_case=args.ranks_per_case,
-        schedule=args.schedule,
-        force=args.force,
-        shard=shard,
-        summary=not args.no_summary,
-        plot_metric=args.plot_metric,
-    )
+    try:
+        with sigterm_interrupts():
+            result = batch.run_batch(
+                plan,
+                comm,
+                ranks_per_case=args.ranks_per_case,
+                schedule=args.schedule,
+                force=args.force,
+                shard=shard,
+                summary=not args.no_summary,
+                plot_metric=args.plot_metric,
+            )
+    except KeyboardInterrupt as err:
+        return interrupted(comm, describe_interruption(err, plan.output))
     if comm.rank == 0:
         failed = [r for r in result.records if r["status"] not in batch.PASSED]
         for record in failed:

@@ -1,8 +1,10 @@
 """``python3 -m solver compare RUN RUN ...``: finished runs side by side, in one table and one plot.
 
-Each RUN is a case directory (its ``results/results.nc``) or a results file. Prints one row per run
-(or one JSON object with ``--json``): the cycle minimum of h_min, the maxima of p_max, of the asperity
-force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
+Each RUN is a case directory (its ``results/results.nc``), a results directory (``run --output DIR``,
+holding ``results.nc``) or a results file. A run is labelled by its directory's name, a file by the case
+name stored in it (so that a copied ``results.nc`` keeps its case's name). Prints one row per run (or
+one JSON object with ``--json``): the joint, the cycle minimum of h_min, the maxima of p_max, of the
+asperity force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
 film's share of the bearing area (cavitation model beside it). With ``--output PNG`` rank 0 also
 writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
 cavitated area over the crank angle, one line per run (e.g. the rigid and the elastic small end of the
@@ -39,7 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "runs",
         nargs="+",
         metavar="RUN",
-        help="case directory (with results/results.nc) or a results.nc file; at least one",
+        help="case directory (with results/results.nc), results directory (with results.nc) or a "
+        "results.nc file; at least one",
     )
     parser.add_argument(
         "--output", type=Path, default=None, metavar="PNG", help="write the comparison plot here"
@@ -51,13 +54,21 @@ def results_path(run: str) -> Path:
     """The results file of a RUN argument; InputError unless it is a finished run's."""
     path = Path(run)
     if path.is_dir():
-        path = path / "results" / "results.nc"
+        path = path / "results.nc" if (path / "results.nc").is_file() else path / "results" / "results.nc"
     if not is_complete(path):
         raise InputError(
             f"RUN = {run!r} is out of range (allowed: a case directory with a finished run's "
-            "results/results.nc, or such a file)"
+            "results/results.nc, a directory with such a results.nc, or such a file)"
         )
     return path
+
+
+def run_label(run: str, path: Path) -> str:
+    """A run's label: a directory's name, or (a file, perhaps copied elsewhere) the case name stored in it."""
+    if Path(run).is_dir():
+        return Path(run).resolve().name
+    with xr.open_dataset(path) as ds:
+        return str(ds.attrs.get("name", "")) or path.stem
 
 
 def summary(ds: xr.Dataset, label: str) -> dict:
@@ -66,6 +77,7 @@ def summary(ds: xr.Dataset, label: str) -> dict:
     deformation = ds["deformation_max"].values if "deformation_max" in ds else np.full(angle.size, np.nan)
     return {
         "run": label,
+        "joint": str(ds.attrs.get("joint", "")),
         "elastic": str(ds.attrs.get("small_end.elastic", "none")),
         "piezoviscosity": str(ds.attrs.get("oil.piezoviscosity", "none")),
         "h_min_min_m": nan_reduce(np.nanmin, ds.h_min.values),
@@ -109,10 +121,10 @@ def run(args: argparse.Namespace, comm) -> int:
     paths = [results_path(r) for r in args.runs]
     if args.output is not None and args.output.suffix.lower() != ".png":
         raise InputError(f"--output = {str(args.output)!r} is out of range (allowed: a .png file)")
-    labels = []
+    labels: list[str] = []
     for r, path in zip(args.runs, paths):
-        label = path.parent.parent.name if Path(r).is_dir() else path.stem
-        labels.append(label if label not in labels else f"{label} ({len(labels) + 1})")
+        name = run_label(r, path)
+        labels.append(name if name not in labels else f"{name} ({len(labels) + 1})")
     datasets = {}
     try:
         for label, path in zip(labels, paths):
@@ -126,13 +138,13 @@ def run(args: argparse.Namespace, comm) -> int:
                 print(json.dumps({"runs": rows, "plot": str(args.output) if args.output else None}))
             else:
                 print(
-                    f"{'run':<28} {'elastic':>8} {'piezo':>8} {'min h_min':>11} {'max p_max':>10} "
-                    f"{'max F_asp':>10} "
+                    f"{'run':<28} {'joint':>13} {'elastic':>8} {'piezo':>8} {'min h_min':>11} "
+                    f"{'max p_max':>10} {'max F_asp':>10} "
                     f"{'friction':>9} {'max w':>8} {'cavitation':>10} {'cav. area':>9}"
                 )
                 for row in rows:
                     print(
-                        f"{row['run']:<28} {row['elastic']:>8} {row['piezoviscosity']:>8} "
+                        f"{row['run']:<28} {row['joint']:>13} {row['elastic']:>8} {row['piezoviscosity']:>8} "
                         f"{row['h_min_min_m'] * 1e6:>8.3f} um {row['p_max_max_Pa'] / 1e6:>6.1f} MPa "
                         f"{row['F_asperity_max_N']:>8.1f} N {row['friction_power_mean_W']:>7.3f} W "
                         f"{row['deformation_max_m'] * 1e6:>5.2f} um {row['cavitation']:>10} "

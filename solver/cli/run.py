@@ -1,9 +1,12 @@
 """``python3 -m solver run CASE``: one engine operating point with the lubricated small end.
 
-Writes ``CASE/results/``: ``results.nc`` (the data contract of DESIGN 4), ``orbit.png``, ``film.png``,
-``forces.png``, ``friction_power.png``, ParaView fields ``film_XXX.Xdeg.xdmf`` (mixed-fem) and
-``run.log``. A progress bar shows the cycle, the crank angle and h_min. An interrupted run resumes
-from the last finished cycle (``results/checkpoint.npz``) unless ``--restart`` is given.
+Writes ``CASE/results/`` (or ``--output DIR``): ``results.nc`` (the data contract of DESIGN 4),
+``orbit.png``, ``film.png``, ``forces.png``, ``friction_power.png``, ParaView fields
+``film_XXX.Xdeg.xdmf`` (mixed-fem) and ``run.log``. Finished results of another case or another joint
+in that directory are not overwritten without ``--force`` (bad input, exit 2). A progress bar shows the
+cycle, the crank angle and h_min. An interrupted run (Ctrl-C, SIGTERM) prints one line (where it
+stopped, the checkpoint kept) and exits with 130; it resumes from the last finished cycle
+(``checkpoint.npz`` in the results directory) when run again, unless ``--restart`` is given.
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ import math
 import sys
 from pathlib import Path
 
+from solver.cli.interrupts import interrupted, sigterm_interrupts
+from solver.errors import InputError
 from solver.study.simulation import SimulationError, run_case
 
 
@@ -27,20 +32,64 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="small-end model (default: solver.joint of the case, normally mixed-fem)",
     )
     parser.add_argument("--restart", action="store_true", help="ignore a checkpoint and start from cycle 1")
+    parser.add_argument(
+        "--output",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="results directory (default: results/ beside the case file)",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="overwrite finished results of another case or joint in the results directory",
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def check_output(out_dir: Path, name: str, joint: str, force: bool) -> None:
+    """InputError if ``out_dir`` holds the finished results of another case or joint (unless ``force``)."""
+    from solver.study.results import results_owner
+
+    owner = results_owner(out_dir / "results.nc")
+    if force or owner is None or owner == (name, joint):
+        return
+    raise InputError(
+        f"--output = {str(out_dir)!r} holds the results of case {owner[0]} with joint {owner[1]}, which this "
+        f"run (case {name}, joint {joint}) would overwrite (allowed: another --output DIR, or --force)"
+    )
+
+
 def run(args, comm) -> int:
-    """Run the case; 0 on success, 1 when the simulation fails (bad input: InputError -> 2)."""
+    """Run the case; 0 on success, 1 when the simulation fails (bad input: InputError -> 2), 130 when
+    interrupted."""
+    from solver.case import load_case
+    from solver.study.batch import interruption_text
+
+    case = load_case(args.case)
+    out_dir = args.output if args.output is not None else case.directory / "results"
+    joint = args.joint or case.solver.joint
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(f"--output = {str(out_dir)!r} is out of range (allowed: a directory)")
+    check_output(out_dir, case.name, joint, args.force)
     try:
-        summary = run_case(
-            args.case, comm, joint=args.joint, progress=not (args.quiet or args.json), resume=not args.restart
-        )
+        with sigterm_interrupts():
+            summary = run_case(
+                args.case,
+                comm,
+                joint=args.joint,
+                progress=not (args.quiet or args.json),
+                resume=not args.restart,
+                output=out_dir,
+            )
     except SimulationError as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt as err:
+        text = interruption_text(err, case.name, out_dir / "checkpoint.npz")
+        return interrupted(comm, text + (" (--restart starts afresh)" if "resumes" in text else ""))
     if comm.rank == 0:
         report = {
             "case": summary.case,
@@ -52,6 +101,7 @@ def run(args, comm) -> int:
             "cycles": summary.cycles,
             "periodic": summary.periodic,
             "wall_time_s": summary.wall_time,
+            "wall_time_last_invocation_s": summary.wall_time_last_invocation,
             "film_temperature_C": summary.film_temperature,
             "film_viscosity_Pa_s": summary.film_viscosity,
             "thermal_closure": summary.thermal_closure,

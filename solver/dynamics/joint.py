@@ -60,6 +60,11 @@ class FilmJoint(ClearanceJoint):
     Euler from the last committed state): the time and the commit count are part of a state's key, and
     ``commit(t)`` after an accepted output state makes its deformation the start of the next rate (a
     rejected step never commits, so it cannot corrupt the history).
+
+    Where the film is thinnest (``h_min_angle``): along the eccentricity for a rigid bushing; with an
+    elastic one the film node where the deformed gap ``c - e' . n + w`` is least (taken right after the
+    solve, from the film's deformation; the film's h_min is that node's gap, or the rigid gap along e'
+    plus the deformation there when that is smaller: then along the eccentricity).
     """
 
     CACHE_SIZE = 512
@@ -72,8 +77,9 @@ class FilmJoint(ClearanceJoint):
         self._key: tuple | None = None
         self._result = None
         self.last_result = None
-        # key -> (FilmResult, the elastic unknowns of that solve or None)
-        self._cache: dict[tuple, tuple[object, np.ndarray | None]] = {}
+        # key -> (FilmResult, the elastic unknowns of that solve or None, bushing angle [rad] of h_min)
+        self._cache: dict[tuple, tuple[object, np.ndarray | None, float]] = {}
+        self._node_xy: np.ndarray | None = None  # the film's owned nodes (x, y) on the unit circle
         self._elastic = model.has_history  # the deformation's (JFO: film fraction's) history
         self._commits = 0
         self._last_key: tuple | None = None
@@ -129,7 +135,11 @@ class FilmJoint(ClearanceJoint):
                 )
                 self._key = key
                 self.n_solves += 1
-                self._cache[key] = (self._result, self.model.history_state())
+                self._cache[key] = (
+                    self._result,
+                    self.model.history_state(),
+                    self._h_min_angle(key[:2], self._result.h_min),
+                )
                 if len(self._cache) > self.CACHE_SIZE:
                     del self._cache[next(iter(self._cache))]
             jac = None
@@ -144,6 +154,28 @@ class FilmJoint(ClearanceJoint):
         self.last_result = r
         return JointForces(np.array(r.force), r.torque_journal, r.torque_bushing, jac)
 
+    def _h_min_angle(self, ecc, h_min: float) -> float:
+        """Bushing angle [rad, 0..2 pi) of the thinnest film of the state just solved (class docstring).
+        Collective on the film's communicator with an elastic bushing."""
+        along_e = math.atan2(ecc[1], ecc[0]) % (2 * math.pi)
+        W = self.model.W
+        if W is None:  # rigid: h = c - |e'| along e'
+            return along_e
+        if self._node_xy is None:
+            V = self.model.V
+            self._node_xy = V.tabulate_dof_coordinates()[: V.dofmap.index_map.size_local, :2].copy()
+        beta = self.model.frame_angle  # the solution frame's angle: a node at theta is at theta + beta
+        c, s = math.cos(beta), math.sin(beta)
+        x = self._node_xy @ np.array([[c, s], [-s, c]])  # the nodes in the bushing frame
+        clearance = self.model.bearing.clearance
+        gap = clearance * (1.0 - x @ (np.asarray(ecc, dtype=float) / clearance) + W.x.array[: len(x)])
+        local = (float(gap.min()), math.atan2(*x[int(np.argmin(gap))][::-1])) if len(x) else (math.inf, 0.0)
+        comm = self.model.comm
+        at_nodes, angle = local if comm.size == 1 else min(comm.allgather(local))
+        if h_min < at_nodes - 1e-9 * clearance:  # the film's h_min is the rigid gap's point, along e'
+            return along_e
+        return angle % (2 * math.pi)
+
     #: the variables of solver.study.results.VARIABLES this joint reports at a state (``outputs``)
     OUTPUTS: ClassVar[tuple[str, ...]] = (
         "p_max",
@@ -151,6 +183,7 @@ class FilmJoint(ClearanceJoint):
         "F_asperity",
         "contact_area_ratio",
         "h_min",
+        "h_min_angle",
         "deformation_max",
         "deformation_max_angle",
         "side_flow",
@@ -165,12 +198,14 @@ class FilmJoint(ClearanceJoint):
         result = self.result_at(ecc, ecc_rate, omega_rel, t)
         if result is None:
             return {}
+        angle = self._cache[self._state_key(ecc, ecc_rate, omega_rel, t)][2]
         return {
             "p_max": result.p_max,
             "F_hydro": result.hydro_load,
             "F_asperity": result.asperity_load,
             "contact_area_ratio": result.contact_area_ratio,
             "h_min": result.h_min,
+            "h_min_angle": math.degrees(angle),
             "deformation_max": result.max_deformation,
             "deformation_max_angle": result.max_deformation_theta,
             "side_flow": result.side_flow,
@@ -195,6 +230,12 @@ class ShortBearingJoint(ClearanceJoint):
     The axial (Poiseuille) flow ``-h^3/(12 mu) dp/dz = -g z`` per unit length of circumference leaves
     both edges of the pressurised arc, so the side flow (``side_flow``) is ``Q = -B R integral_{g<0} g
     dtheta`` (>= 0; it does not depend on mu at given kinematics).
+
+    The peak pressure (``p_max``) is on the mid-plane z = 0, ``p_max = 3/2 mu B^2 max_theta (-g / h^3)``
+    over the pressurised arc (0 where there is none), rotation and squeeze together: the largest of the
+    quadrature angles, refined to the stationary point ``g' h = 3 g h'`` between its neighbours. For pure
+    rotation its angle from the maximum gap is Ocvirk's ``cos theta_m = (1 - sqrt(1 + 24 eps^2)) /
+    (4 eps)`` (e.g. Hamrock, Fundamentals of Fluid Film Lubrication, ch. 16).
     """
 
     radius: float  # m
@@ -252,16 +293,47 @@ class ShortBearingJoint(ClearanceJoint):
         g = self._wedge_and_squeeze(ex, ey, rx, ry, omega_rel)[4]
         return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
 
+    def peak_pressure(self, ecc, ecc_rate, omega_rel) -> tuple[float, float]:
+        """(p_max [Pa], its bushing angle [rad] in [0, 2 pi)) on the mid-plane (class docstring); (0, NaN)
+        without a pressurised arc, (NaN, NaN) outside the clearance."""
+        ex, ey, rx, ry = (float(v) for v in (*ecc, *ecc_rate))
+        w = float(omega_rel)
+        if not all(math.isfinite(v) for v in (ex, ey, rx, ry, w)) or math.hypot(ex, ey) >= self.clearance:
+            return math.nan, math.nan
+
+        def q(theta):  # -g / h^3 where the film is pressurised (g < 0), else 0
+            cos, sin = np.cos(theta), np.sin(theta)
+            h = self.clearance - ex * cos - ey * sin
+            g = 0.5 * w * (ex * sin - ey * cos) - rx * cos - ry * sin
+            return np.where(g < 0, -g / h**3, 0.0)
+
+        values = q(self._theta)
+        i = int(np.argmax(values))
+        if not values[i] > 0:
+            return 0.0, math.nan
+        from scipy.optimize import minimize_scalar
+
+        step = 2 * math.pi / self.points
+        best = minimize_scalar(
+            lambda theta: -float(q(theta)),
+            bounds=(self._theta[i] - step, self._theta[i] + step),
+            method="bounded",
+            options={"xatol": 1e-10},
+        )
+        theta, peak = (best.x, -best.fun) if -best.fun > values[i] else (self._theta[i], values[i])
+        return 1.5 * self.viscosity * self.width**2 * float(peak), float(theta) % (2 * math.pi)
+
     #: the variables of solver.study.results.VARIABLES this joint reports at a state (``outputs``)
-    OUTPUTS: ClassVar[tuple[str, ...]] = ("F_hydro", "F_asperity", "side_flow")
+    OUTPUTS: ClassVar[tuple[str, ...]] = ("F_hydro", "F_asperity", "side_flow", "p_max")
 
     def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
-        """The film load (all of the force: no asperity contact) and the side flow at a state whose
-        ``forces`` were just evaluated."""
+        """The film load (all of the force: no asperity contact), the side flow and the peak pressure at
+        a state whose ``forces`` were just evaluated."""
         return {
             "F_hydro": float(np.hypot(*np.asarray(forces.force))),
             "F_asperity": 0.0,
             "side_flow": self.side_flow(ecc, ecc_rate, omega_rel),
+            "p_max": self.peak_pressure(ecc, ecc_rate, omega_rel)[0],
         }
 
 

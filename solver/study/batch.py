@@ -23,6 +23,9 @@ Per case, on every rank of its group:
 - rank 0 of the group writes ``results/case_status.json`` (status, error, wall time, ranks, host,
   metrics). Each case has exactly one group, so no two ranks ever write the same file.
 
+Each record says whether the case ran in this invocation (``ran_this_invocation``; a case finished
+before is ``skipped`` in the records and ``complete`` in the summary).
+
 At the end world rank 0 gathers the records and writes ``<output>/batch_status.json`` and the summary
 (solver.study.summary: ``summary.nc`` and ``summary_<metric>.png``). A shard (``shard=(i, n)``: the cases
 i, i + n, ... of the list, for Slurm job arrays) writes ``batch_status.shard-<i>-of-<n>.json`` and no
@@ -30,6 +33,15 @@ summary; :func:`collect` makes the status and the summary of the whole batch aft
 per-case files. Every file is written under a temporary name and renamed into place.
 
 Results files themselves are written by run_case (atomically, on rank 0 of the case communicator).
+
+Interruptions (KeyboardInterrupt on a rank: Ctrl-C, or the SIGTERM that ``mpirun`` sends every rank
+when it is interrupted, which the command line turns into one; ``mpirun`` kills the ranks 1 s later):
+no collective call is made any more (the other ranks may be anywhere). Rank 0 of an interrupted case's
+group writes its ``case_status.json`` (status ``interrupted``, where it stopped, the checkpoint kept),
+and world rank 0 writes ``batch_status.json`` at once from its own records and the cases' files
+(finished cases complete; the others ``interrupted``, a rerun runs or resumes them), no summary;
+:func:`run_batch` then raises :class:`BatchInterrupted`. The wait for the other groups at the end
+polls a non-blocking barrier, so that a rank that has finished its cases still sees the interruption.
 """
 
 from __future__ import annotations
@@ -57,6 +69,7 @@ from solver.errors import InputError
 from solver.study import io
 from solver.study import summary as summaries
 from solver.study import sweep as sweeps
+from solver.study.cycles import RunInterrupted
 from solver.study.results import is_complete
 from solver.study.simulation import run_case
 
@@ -64,7 +77,8 @@ log = logging.getLogger(__name__)
 
 CASE_STATUS = "case_status.json"
 BATCH_STATUS = "batch_status.json"
-STATES = ("complete", "skipped", "failed", "invalid", "missing")  # missing: not run (collect only)
+# missing: not run (collect only); interrupted: not finished when the batch was interrupted
+STATES = ("complete", "skipped", "failed", "invalid", "missing", "interrupted")
 PASSED = ("complete", "skipped")
 
 Runner = Callable[[Path, Any], Any]
@@ -271,6 +285,7 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
                 error="",
                 finished=previous.get("finished", ""),
                 wall_time_s=previous.get("wall_time_s"),
+                ran_this_invocation=False,
             )
             return record
         return None
@@ -281,6 +296,23 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
     summary = None
     try:
         summary = runner(case_dir, group)
+    except KeyboardInterrupt as err:  # the batch stops: record where (no collective call any more)
+        checkpoint = case_dir / "results" / "checkpoint.npz"
+        if group.rank == 0:
+            record.update(
+                status="interrupted",
+                error=f"interrupted: {interruption_text(err, case_dir.name, checkpoint)}",
+                started=started,
+                finished=_now(),
+                wall_time_s=time.perf_counter() - start,
+                case_toml_sha256=sha,
+                ranks=group.size,
+                host=socket.gethostname(),
+                solver_version=__version__,
+                ran_this_invocation=True,
+            )
+            _write_case_status(case_dir, record)
+        raise BatchInterrupted(record if group.rank == 0 else None) from None
     except InputError as err:
         error = ("invalid", str(err), traceback.format_exc())
     except Exception as err:  # noqa: BLE001 - a failing case must not stop the batch
@@ -300,6 +332,7 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
         ranks=group.size,
         host=socket.gethostname(),
         solver_version=__version__,
+        ran_this_invocation=True,
     )
     if error:
         record["traceback"] = error[2]
@@ -307,6 +340,39 @@ def run_one(case_dir: Path, group, *, runner: Runner | None = None, force: bool 
         record["metrics"] = _metrics(summary)
     _write_case_status(case_dir, record)
     return record
+
+
+def interruption_text(err: BaseException, name: str, checkpoint: Path) -> str:
+    """Where case ``name`` stopped (solver.study.cycles.RunInterrupted; else from its ``checkpoint``
+    file) and what a rerun does."""
+    if isinstance(err, RunInterrupted):
+        if err.checkpoint is None:
+            return f"{err}; a rerun starts it again"
+        return f"{err}; a rerun resumes it after cycle {err.checkpoint_cycles}"
+    cycles = io.checkpoint_cycles(checkpoint)
+    text = f"case {name} outside its cycles (setting up, or writing its results)"
+    if cycles:
+        return f"{text}; a rerun resumes it after cycle {cycles} ({checkpoint})"
+    return f"{text}; a rerun starts it again"
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """The batch was interrupted on this rank (a KeyboardInterrupt).
+
+    Attributes:
+        record: the record of the case this rank's group was running (group rank 0), or None.
+        status_file: on world rank 0, the batch status written (None if it could not be).
+        records: on world rank 0, the records of the status file.
+    """
+
+    def __init__(self, record: dict | None):
+        super().__init__()
+        self.record = record
+        self.status_file: Path | None = None
+        self.records: list[dict] = []
+
+    def __str__(self) -> str:
+        return self.record["error"] if self.record else "interrupted"
 
 
 def _write_case_status(case_dir: Path, record: dict) -> None:
@@ -473,16 +539,42 @@ def run_batch(
     records: list[tuple[int, dict]] = []
     # No try/finally with collectives here: an error of the batch layer itself (not of a case) must
     # propagate so that `python3 -m mpi4py` aborts every rank instead of leaving them waiting.
-    while True:
-        index = group.bcast(counter.next() if group.rank == 0 else None, root=0)
-        if index >= len(plan.cases):
-            break
-        record = run_one(plan.cases[index], group, runner=runner, force=force)
-        if record is not None:
-            record.update(group=group_index, world_rank=world.rank)
-            records.append((index, record))
-            _log_record(record, index, len(plan.cases))
-    world.Barrier()  # the counter lives until every group is done
+    try:
+        while True:
+            index = group.bcast(counter.next() if group.rank == 0 else None, root=0)
+            if index >= len(plan.cases):
+                break
+            record = run_one(plan.cases[index], group, runner=runner, force=force)
+            if record is not None:
+                record.update(group=group_index, world_rank=world.rank)
+                records.append((index, record))
+                _log_record(record, index, len(plan.cases))
+        _wait_for_all(world)  # the counter lives until every group is done
+    except KeyboardInterrupt as err:
+        interrupted = err if isinstance(err, BatchInterrupted) else BatchInterrupted(None)
+        if world.rank == 0:
+            info = {
+                "started": started,
+                "finished": _now(),
+                "wall_time_s": time.perf_counter() - start,
+                "world_size": world.size,
+                "ranks_per_case": ranks_per_case,
+                "schedule": schedule,
+                "shard": f"{shard[0]}/{shard[1]}" if shard else None,
+                "interrupted": True,
+            }
+            own = dict(records)
+            if interrupted.record is not None:
+                own[plan.cases.index(Path(interrupted.record["directory"]))] = interrupted.record
+            interrupted.records = _interrupted_records(plan, own, started)
+            name = BATCH_STATUS if shard is None else f"batch_status.shard-{shard[0]}-of-{shard[1]}.json"
+            try:
+                plan.output.mkdir(parents=True, exist_ok=True)
+                io.write_json(plan.output / name, _status_document(plan, interrupted.records, info))
+                interrupted.status_file = plan.output / name
+            except OSError as err:
+                log.error("cannot write %s in %s: %s", name, plan.output, err)
+        raise interrupted from None
     counter.free()
     group.Free()
     gathered = world.gather(records, root=0)
@@ -506,6 +598,49 @@ def run_batch(
         )
     exit_status = world.bcast(outcome[0], root=0)
     return BatchResult(exit_status=exit_status, records=outcome[1], files=outcome[2])
+
+
+def _wait_for_all(world) -> None:
+    """A barrier that sees a KeyboardInterrupt meanwhile (a blocking one would not return to Python,
+    and the signal's handler would wait for it for ever: the interrupted ranks never arrive)."""
+    request = world.Ibarrier()
+    while not request.Test():
+        time.sleep(0.01)
+
+
+def _interrupted_records(plan: BatchPlan, own: dict[int, dict], started: str) -> list[dict]:
+    """World rank 0 after an interruption: its own records, else what the case files say (not
+    collective, and quick: ``case_status.json`` alone, results files only without one). ``started``:
+    this invocation's start (the time stamps of the case files tell what ran in it)."""
+    records = []
+    for index, case_dir in enumerate(plan.cases):
+        if index in own:
+            records.append(own[index])
+            continue
+        record: dict[str, Any] = {"case": case_dir.name, "directory": str(case_dir)}
+        status = read_case_status(case_dir) or {}
+        current = bool(status) and status.get("case_toml_sha256") == case_toml_sha256(case_dir)
+        now = current and str(status.get("finished", "")) >= started  # recorded in this invocation
+        if now or (current and status.get("status") == "complete"):  # or finished before it
+            record.update({k: v for k, v in status.items() if k not in ("case", "directory", "traceback")})
+            record.update(status=status["status"] if now else "skipped", ran_this_invocation=now)
+            records.append(record)
+            continue
+        if not status and results_complete(case_dir / "results" / "results.nc"):
+            record.update(status="skipped", error="", ran_this_invocation=False)
+        else:
+            cycles = io.checkpoint_cycles(case_dir / "results" / "checkpoint.npz")
+            record.update(
+                status="interrupted",
+                error=(
+                    f"interrupted: not finished; a rerun resumes it after cycle {cycles}"
+                    if cycles
+                    else "interrupted: not run before the interruption; a rerun runs it"
+                ),
+                ran_this_invocation=False,
+            )
+        records.append(record)
+    return records
 
 
 def _log_record(record: dict, index: int, total: int) -> None:
@@ -571,7 +706,7 @@ def collect(plan: BatchPlan, *, plot_metric: str = "h_min_min", summary: bool = 
     records = []
     for case_dir in plan.cases:
         status = read_case_status(case_dir) or {}
-        record = {"case": case_dir.name, "directory": str(case_dir)}
+        record = {"case": case_dir.name, "directory": str(case_dir), "ran_this_invocation": False}
         if is_finished(case_dir):
             record.update(status="complete", error="")
             for key in ("finished", "wall_time_s", "ranks", "host", "metrics"):
@@ -598,6 +733,8 @@ __all__ = [
     "discover_collective",
     "run_batch",
     "run_one",
+    "BatchInterrupted",
+    "interruption_text",
     "collect",
     "split_groups",
     "is_finished",

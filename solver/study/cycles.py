@@ -13,7 +13,9 @@ The run stops when the cycle minimum of the film thickness changes by less than
 power by less than that fraction of itself; with oil.thermal = "effective" also when the cycle's heat
 balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
 solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the
-film's committed history, so an interrupted run resumes from the last finished cycle.
+film's committed history, so an interrupted run resumes from the last finished cycle. An interruption
+(KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one) inside the cycles
+leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint is kept.
 """
 
 from __future__ import annotations
@@ -44,6 +46,29 @@ CHUNK_DEG = 10.0  # crank angle between progress updates
 
 class SimulationError(RuntimeError):
     """The coupled run failed (the message names the crank angle and cycle)."""
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The cycles were interrupted (a KeyboardInterrupt: the batch layer lets it through like one).
+
+    Attributes:
+        case: the case name.
+        cycle: the cycle it was in (1-based).
+        angle: deg, the last crank angle it reached in that cycle.
+        checkpoint: the checkpoint file, or None when no cycle was finished (nothing to resume).
+        checkpoint_cycles: the cycles the checkpoint holds (where a rerun resumes).
+    """
+
+    def __init__(self, case: str, cycle: int, angle: float, checkpoint: Path | None, checkpoint_cycles: int):
+        super().__init__(case, cycle, angle)
+        self.case, self.cycle, self.angle = case, cycle, angle
+        self.checkpoint, self.checkpoint_cycles = checkpoint, checkpoint_cycles
+
+    def __str__(self) -> str:
+        where = f"case {self.case} at cycle {self.cycle}, crank angle {self.angle:.0f} deg"
+        if self.checkpoint is None:
+            return f"{where} (no cycle finished: no checkpoint)"
+        return f"{where} (checkpoint after cycle {self.checkpoint_cycles} kept: {self.checkpoint})"
 
 
 @dataclasses.dataclass
@@ -120,6 +145,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
                 f"{angles[k]:.2f} deg of cycle {cycle + 1}: {err}"
             ) from None
         row, qd = outputs.at(t, q, arrival)
+        run.position = (cycle, float(angles[k]))  # where an interruption stops (RunInterrupted)
         stepper.restart(q, qd)  # the next interval starts from the consistent velocities
         output_accepted(t)
         rows.append(row)
@@ -235,6 +261,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         history, friction = checkpoint.h_min_history, checkpoint.friction_history
         timings = checkpoint.timings
         log.info("resuming after cycle %d from %s", first, path)
+        run.earlier_wall_time = checkpoint.elapsed_s
         if run.model is not None:  # an elastic bushing's deformation (JFO: film fraction) history goes on
             for time_s, film_state in checkpoint.film:
                 run.model.commit_history(film_state, time_s)
@@ -289,6 +316,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         )
         return oil.thermal.converged
 
+    run.position, saved = (first, 0.0), first  # (cycle index, crank angle) reached; cycles checkpointed
     try:
         # log lines go above the progress bar instead of through it
         with _logs_above_the_bar() if bar is not None else nullcontext():
@@ -316,14 +344,19 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             timings=timings,
                             thermal=oil.thermal.state() if oil.thermal is not None else None,
                             film=run.model.committed_history() if run.model is not None else [],
+                            elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
                         ),
                     )
+                saved = index + 1
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
                 if settled_now and consistent:
                     periodic = True
                     break
+    except KeyboardInterrupt:
+        index, angle = run.position
+        raise RunInterrupted(case.name, index + 1, angle, path if saved else None, saved) from None
     finally:
         if bar is not None:
             bar.close()

@@ -223,6 +223,7 @@ __all__ = [
     "Checkpoint",
     "write_checkpoint",
     "read_checkpoint",
+    "checkpoint_cycles",
 ]
 
 
@@ -305,6 +306,8 @@ class Checkpoint:
             None when isothermal.
         film: the film's committed history states, (time, state) in the order they were committed
             (the film's ``committed_history``; [] for a film without history).
+        elapsed_s: s, the wall time of the run up to this checkpoint, over every invocation that
+            worked on it (a resumed run's wall time goes on from it).
     """
 
     fingerprint: str
@@ -317,6 +320,7 @@ class Checkpoint:
     timings: list[dict[str, float]]
     thermal: list[dict] | None = None
     film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
+    elapsed_s: float = 0.0
 
 
 def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
@@ -339,7 +343,18 @@ def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
                 film_times=film_times,
                 film_states=film_states,
                 friction=np.asarray(checkpoint.friction_history, dtype=float),
+                elapsed=float(checkpoint.elapsed_s),
             )
+
+
+def checkpoint_cycles(path: Path) -> int | None:
+    """The number of cycles a checkpoint file holds (whatever case it belongs to); None without a
+    readable one. For messages (e.g. after an interruption: where a rerun resumes)."""
+    try:
+        with np.load(path) as data:
+            return int(data["cycles"])
+    except (OSError, KeyError, ValueError):
+        return None
 
 
 def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
@@ -351,6 +366,7 @@ def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
             if str(data["fingerprint"]) != fingerprint:
                 log.info("checkpoint %s belongs to other case settings: starting afresh", path)
                 return None
+            timings = json.loads(str(data["timings"])) if "timings" in data else []
             return Checkpoint(
                 fingerprint=fingerprint,
                 cycles=int(data["cycles"]),
@@ -359,12 +375,18 @@ def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
                 qd=data["qd"].copy(),
                 h_min_history=list(data["history"]),
                 friction_history=list(data["friction"]) if "friction" in data else [],
-                timings=json.loads(str(data["timings"])) if "timings" in data else [],
+                timings=timings,
                 thermal=json.loads(str(data["thermal"])) if "thermal" in data else None,
                 film=(
                     list(zip(data["film_times"].tolist(), data["film_states"].copy()))
                     if "film_times" in data
                     else []
+                ),
+                # an older checkpoint without it: the cycles' own wall times (without the set-up)
+                elapsed_s=(
+                    float(data["elapsed"])
+                    if "elapsed" in data
+                    else float(sum(t.get("wall_s", 0.0) for t in timings))
                 ),
             )
     except (OSError, KeyError, ValueError) as err:

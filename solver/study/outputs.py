@@ -113,6 +113,7 @@ class StateOutputs:
             pin_force_x=pin_on_rod[0],
             pin_force_y=pin_on_rod[1],
             h_min=self.clearance - math.hypot(*kin.ecc),
+            h_min_angle=math.degrees(math.atan2(kin.ecc[1], kin.ecc[0])) % 360.0,  # rigid: along e'
             friction_torque=forces.journal_torque,
             friction_power=friction,
             squeeze_power=squeeze,

@@ -62,6 +62,16 @@ VARIABLES: dict[str, tuple[str, str]] = {
         "largest radial deformation of the bushing surface, signed (+ opens the gap; 0: rigid)",
     ),
     "deformation_max_angle": ("rad", "bushing (rod frame) angle of deformation_max"),
+    "deformation_max_angle_deg": (
+        "degree",
+        "deformation_max_angle in degrees, [0, 360) from the rod frame's +x axis towards +y (as h_min_angle)",
+    ),
+    "h_min_angle": (
+        "degree",
+        "bushing (rod frame) angle where the film is thinnest, [0, 360) from the rod frame's +x axis "
+        "(along the rod, as ecc_x) towards +y (as ecc_y): along the eccentricity for a rigid bushing, "
+        "the deformed film's thinnest point for an elastic one; NaN for the ideal joint",
+    ),
     "squeeze_power": ("W", "power of the joint force on the relative pin motion, -F . de/dt"),
     "side_flow": ("m3 s-1", "oil volume flow out of both bushing edges (film joints; NaN otherwise)"),
     "supply_flow": (
@@ -101,7 +111,13 @@ VARIABLES: dict[str, tuple[str, str]] = {
 
 
 #: The variables build_dataset derives from the others (and the ideal cycle) rather than from each state
-DERIVED_VARIABLES = ("ideal_pin_force_x", "ideal_pin_force_y", "eps", "h_min_over_sigma")
+DERIVED_VARIABLES = (
+    "ideal_pin_force_x",
+    "ideal_pin_force_y",
+    "eps",
+    "h_min_over_sigma",
+    "deformation_max_angle_deg",
+)
 #: The variables of each output state (solver.study.outputs); NaN where a state has no value for one
 #: (the film variables of an ideal joint, a joint that does not report it, a film that failed to solve)
 STATE_VARIABLES = tuple(name for name in VARIABLES if name not in DERIVED_VARIABLES)
@@ -158,13 +174,14 @@ class RunSummary:
     friction_power_mean: float  # W, cycle mean of the friction power
     cycles: int
     periodic: bool  # periodic (and, with oil.thermal = "effective", thermally consistent)
-    wall_time: float  # s
+    wall_time: float  # s, over every invocation that worked on the run (a resumed run's included)
     film_temperature: float = math.nan  # C, in the last cycle (FILM_VARIABLES)
     film_viscosity: float = math.nan  # Pa s, at film_temperature
     thermal_closure: float = math.nan  # |heat_to_oil - heat_carried| / heat_to_oil (NaN: isothermal)
     heat_generated: float = math.nan  # W, cycle mean of the dissipated power
     heat_to_oil: float = math.nan  # W
     heat_carried: float = math.nan  # W, by the side flow
+    wall_time_last_invocation: float = math.nan  # s, of the invocation that finished the run
 
 
 def attach_log(path: Path, comm: MPI.Comm) -> logging.Handler | None:
@@ -196,6 +213,7 @@ def build_dataset(
     data["ideal_pin_force_y"] = np.interp(angles, ideal.crank_angle, ideal.pin_force_y)
     data["eps"] = np.hypot(data["ecc_x"], data["ecc_y"]) / case.small_end.clearance
     data["h_min_over_sigma"] = data["h_min"] / case.surface.sigma
+    data["deformation_max_angle_deg"] = np.degrees(np.asarray(data["deformation_max_angle"], dtype=float))
     variables = {
         name: ("crank_angle", np.asarray(data[name], dtype=float), {"units": u, "long_name": ln})
         for name, (u, ln) in VARIABLES.items()
@@ -231,8 +249,12 @@ def write_results(
     fields: list[Path],
     comm: MPI.Comm,
 ):
-    """Write results.nc and the plots (rank 0); return the RunSummary on every rank."""
+    """Write results.nc and the plots (rank 0); return the RunSummary on every rank. ``wall_time`` is
+    this invocation's; the results hold it as ``wall_time_last_invocation_s`` and, with the earlier
+    invocations' (``run.earlier_wall_time``, from the checkpoint a resumed run started from), as
+    ``wall_time_s``."""
     cols = cycle.columns
+    invocation, wall_time = wall_time, wall_time + getattr(run, "earlier_wall_time", 0.0)
     summary_values = {
         "h_min_min": nan_reduce(np.nanmin, cols["h_min"]),
         "p_max_max": nan_reduce(np.nanmax, cols["p_max"]),
@@ -249,6 +271,7 @@ def write_results(
             "cycles": cycles,
             "periodic": "true" if periodic else "false",
             "wall_time_s": wall_time,
+            "wall_time_last_invocation_s": invocation,
             "mesh_size": run.model.mesh_spec.element_size if run.model is not None else "none",
             "film_dofs": run.model.dofs if run.model is not None else 0,
             "rtol": case.solver.rtol,
@@ -296,6 +319,7 @@ def write_results(
         cycles=cycles,
         periodic=periodic,
         wall_time=wall_time,
+        wall_time_last_invocation=invocation,
         **summary_values,
         **{
             name: film[name]
@@ -326,6 +350,17 @@ def is_complete(path: Path) -> bool:
             return ds.attrs.get("status") == "complete"
     except Exception:  # noqa: BLE001 - any unreadable file is an unfinished run
         return False
+
+
+def results_owner(path: Path) -> tuple[str, str] | None:
+    """(case name, joint) of a finished run's results file; None for no file or an unfinished run."""
+    if not is_complete(path):
+        return None
+    try:
+        with xr.open_dataset(path) as ds:
+            return str(ds.attrs.get("name", "")), str(ds.attrs.get("joint", ""))
+    except Exception:  # noqa: BLE001 - gone or unreadable since: nothing to protect
+        return None
 
 
 def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:

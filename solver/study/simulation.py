@@ -82,6 +82,9 @@ class Run:
         # film history's rate was taken from (None: no history, or quasi-static), for the fields
         self.committed: list[list[tuple[float, np.ndarray]] | None] = []
         self.oil = FilmOil(case.oil)  # the film's oil in the cycles run now
+        self.started = time.perf_counter()  # this invocation's start (run_case sets its own)
+        self.earlier_wall_time = 0.0  # s, of the earlier invocations a resumed run goes on from
+        self.position = (0, 0.0)  # (cycle index, crank angle) the cycles reached (solver.study.cycles)
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""
@@ -114,8 +117,9 @@ def run_case(
     joint: str | None = None,
     progress: bool = False,
     resume: bool = True,
+    output: str | Path | None = None,
 ) -> RunSummary:
-    """Run one case directory; write ``results/`` beside its case.toml; return the summary.
+    """Run one case directory; write ``results/`` beside its case.toml (or ``output``); return the summary.
 
     Args:
         case_path: the case directory (or its TOML file).
@@ -123,6 +127,7 @@ def run_case(
         joint: override ``solver.joint`` of the case.
         progress: show a progress bar on rank 0 (cycle, crank angle, h_min).
         resume: continue from ``results/checkpoint.npz`` if it belongs to the same case.
+        output: the results directory instead of ``results/`` beside the case file.
 
     Raises:
         InputError: a bad case (on every rank of comm).
@@ -138,7 +143,7 @@ def run_case(
             f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
             f'"mixed-fem" or "short-bearing"; got {joint!r})'
         )
-    out_dir = case.directory / "results"
+    out_dir = Path(output) if output is not None else case.directory / "results"
     if comm.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
     comm.Barrier()
@@ -150,6 +155,7 @@ def run_case(
             log.info(defaults_note(case))
         ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))
         run = Run(case, comm, joint)
+        run.started = start
         if joint == "ideal":  # kinematically determined: the ideal cycle is the answer
             cycles_done, periodic = 1, True
             cycle = CycleOutput(ideal_cycle_columns(ideal), math.nan)

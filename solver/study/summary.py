@@ -10,10 +10,18 @@
 - variables (NaN for cases without a finished run): ``h_min_min`` [m] cycle minimum of the minimum
   film thickness, ``p_max_max`` [Pa] cycle maximum of the peak film pressure, ``F_asperity_max``
   [N] cycle maximum of the asperity contact force, ``friction_power_mean`` [W] cycle mean of the
-  friction power, ``run_time`` [s] wall time of the run, ``cycles``, ``periodic`` (1/0), and the
-  strings ``status`` (complete, skipped = finished earlier, failed, invalid, missing) and ``error``.
-  The metrics come from ``results/results.nc``: its ``summary.*`` attributes when present, else
-  computed from its variables with the same definitions (trapezoidal cycle mean).
+  friction power, ``run_time`` [s] wall time of the run (over every invocation that worked on it: a
+  resumed run's earlier part included), ``run_time_last_invocation`` [s] the part of the invocation
+  that finished it; the integers ``cycles`` (int32; 0 without a finished run) and ``periodic`` (int8,
+  1 periodic, 0 not, or no finished run; CF ``flag_values``/``flag_meanings``), ``ran_this_invocation``
+  (int8, 1 when the case ran in the batch invocation that wrote the summary, 0 when it had finished
+  before or did not run); and the strings ``status`` (complete = finished, in this or an earlier
+  invocation; failed, invalid, missing) and ``error``. The metrics come from ``results/results.nc``:
+  its ``summary.*`` attributes when present, else computed from its variables with the same
+  definitions (trapezoidal cycle mean).
+- attributes: besides the constant parameters, ``n_cases`` and the counts ``n_complete`` (every
+  finished case), ``n_skipped`` (of them, those finished before this invocation), ``n_failed``,
+  ``n_invalid``, ``n_missing``.
 
 For a full-factorial sweep ``ds.set_index(case=[...varied keys...]).unstack("case")`` turns the rows
 into an array over the parameters. ``summary_<metric>.png`` plots one metric against each varied
@@ -78,8 +86,9 @@ def case_parameters(case_dir: Path) -> dict[str, Any] | None:
 
 
 def case_metrics(results: Path) -> dict[str, float]:
-    """The summary metrics of one results file (NaN where unavailable)."""
-    out = {name: math.nan for name in (*METRICS, "cycles", "periodic")}
+    """The summary metrics of one results file (NaN where unavailable; ``cycles`` and ``periodic``
+    NaN too, the summary's integers make them 0)."""
+    out = {name: math.nan for name in (*METRICS, "run_time_last_invocation", "cycles", "periodic")}
     try:
         ds = xr.open_dataset(results)
     except Exception:  # noqa: BLE001 - no results: NaN
@@ -99,6 +108,8 @@ def case_metrics(results: Path) -> dict[str, float]:
                     angle = np.asarray(ds["crank_angle"].values, dtype=float)
                     out[name] = float(np.trapz(values, angle) / (angle[-1] - angle[0]))
         out["run_time"] = float(attrs.get("wall_time_s", math.nan))
+        # results of a solver before it: one invocation
+        out["run_time_last_invocation"] = float(attrs.get("wall_time_last_invocation_s", out["run_time"]))
         out["cycles"] = float(attrs.get("cycles", math.nan))
         periodic = attrs.get("periodic")
         if periodic is not None:
@@ -162,6 +173,10 @@ def build_summary(records: Sequence[dict], parameters: Sequence[str] = ()):
         for r in records
     ]
 
+    def integers(name: str, dtype) -> np.ndarray:  # NaN (no finished run) -> 0
+        values = [m.get(name, math.nan) for m in metrics]
+        return np.array([int(v) if math.isfinite(v) else 0 for v in values], dtype=dtype)
+
     coords: dict[str, Any] = {"case": ("case", np.array(names, dtype=object), {"long_name": "case name"})}
     for key in varied:
         spec = specs[key]
@@ -177,20 +192,50 @@ def build_summary(records: Sequence[dict], parameters: Sequence[str] = ()):
             np.array([m.get(name, math.nan) for m in metrics], dtype=float),
             {"units": units, "long_name": long_name},
         )
+    variables["run_time_last_invocation"] = (
+        "case",
+        np.array([m.get("run_time_last_invocation", math.nan) for m in metrics], dtype=float),
+        {
+            "units": "s",
+            "long_name": "wall time of the invocation that finished the run (less than run_time when it "
+            "resumed an interrupted run)",
+        },
+    )
     variables["cycles"] = (
         "case",
-        np.array([m.get("cycles", math.nan) for m in metrics], dtype=float),
-        {"units": "1", "long_name": "720 deg cycles computed"},
+        integers("cycles", np.int32),
+        {"units": "1", "long_name": "720 deg cycles computed (0: no finished run)"},
     )
     variables["periodic"] = (
         "case",
-        np.array([m.get("periodic", math.nan) for m in metrics], dtype=float),
-        {"units": "1", "long_name": "1 if the run reached the periodicity tolerance"},
+        integers("periodic", np.int8),
+        {
+            "units": "1",
+            "long_name": "1 if the run reached the periodicity tolerance, 0 if not or without a finished run",
+            "flag_values": np.array([0, 1], dtype=np.int8),
+            "flag_meanings": "not_periodic periodic",
+        },
+    )
+    variables["ran_this_invocation"] = (
+        "case",
+        np.array(
+            [1 if r.get("ran_this_invocation", r["status"] != "skipped") else 0 for r in records], np.int8
+        ),
+        {
+            "units": "1",
+            "long_name": "1 if the case ran in the batch invocation that wrote this summary, 0 if it had "
+            "finished before (or did not run)",
+            "flag_values": np.array([0, 1], dtype=np.int8),
+            "flag_meanings": "not_run_now run_now",
+        },
     )
     variables["status"] = (
         "case",
-        np.array([r["status"] for r in records], dtype=object),
-        {"long_name": "complete, skipped (finished earlier), failed, invalid or missing"},
+        np.array(["complete" if r["status"] == "skipped" else r["status"] for r in records], dtype=object),
+        {
+            "long_name": "complete (finished, in this or an earlier invocation: see ran_this_invocation), "
+            "failed, invalid or missing"
+        },
     )
     variables["error"] = (
         "case",
@@ -202,6 +247,7 @@ def build_summary(records: Sequence[dict], parameters: Sequence[str] = ()):
         state: sum(r["status"] == state for r in records)
         for state in ("complete", "skipped", "failed", "invalid", "missing")
     }
+    counts["complete"] += counts["skipped"]  # n_complete: every finished case; n_skipped: not run now
     attrs = {
         "title": "batch summary: one row per case",
         "solver_version": __version__,
