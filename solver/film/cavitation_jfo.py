@@ -26,8 +26,17 @@ cheap. The exact Jacobian::
 
 No bounds: semismooth Newton (``newtonls``, basic line search, the step limited as the coupled VI's,
 solver.film.ehd.step_factor) converges when a step keeps the partition (u > 0) and the residual is at
-round-off; the LU of the full matrix is refactorised numerically (one pattern). The forces'
-sensitivities to the kinematics use the same matrix.
+round-off. With a few modes (the FE eye) its systems are solved by the Schur complement of the film
+block dR_u/du (solver.film.coupled_lu.SchurLU, as the Reynolds rows': PETSc's LU of the film block's
+fixed pattern refactorised numerically, the m x m Schur system by GMRES preconditioned with the last
+complement formed), and the SNES's Jacobian callback computes the blocks only (dR_u/dq = M Phi with M a
+fixed linear map of the cells' d R_u/d H_K, solver.film.ehd.border_map). dR_u/du is the rigid JFO
+film's generalised Jacobian, an M-matrix (solver.film.jfo), so the LU needs no pivoting (at a zero
+pivot SchurLU takes MUMPS for that factorisation); the dense borders, which made the whole matrix need
+MUMPS, only enter the complement. Node by node (Winkler) the whole coupled
+matrix is refactorised numerically (one pattern, MUMPS). The forces' sensitivities to the kinematics
+use the Jacobian at the solution, factorised there. The coefficients and their d/dW are evaluated in
+the coupled Newton's one compiled kernel.
 """
 
 from __future__ import annotations

@@ -85,7 +85,8 @@ def test_jacobian_at_the_solution_matches_finite_differences(coarse_eye):
     Jacobian's blocks at the solution, factorised by SchurLU, and the JFO forms' kinematic derivatives)
     against central differences of solves that each start from the solution (so the solve's tolerance,
     1e-10 of the flux, does not enter the difference; steps 1e-10 m, 1e-5 m/s, 1e-2 rad/s keep the
-    partition), to 1e-5 of each row's largest entry (measured ~1e-7)."""
+    partition), to 1e-5 of each row's largest entry (measured 4e-11 for the forces, 3e-7 for the
+    torques)."""
     with _eye_jfo(coarse_eye) as model:
         (t0, steady), (t1, state) = STATES[:2]
         model.solve(steady, t0)
