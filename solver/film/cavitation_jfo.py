@@ -26,8 +26,17 @@ cheap. The exact Jacobian::
 
 No bounds: semismooth Newton (``newtonls``, basic line search, the step limited as the coupled VI's,
 solver.film.ehd.step_factor) converges when a step keeps the partition (u > 0) and the residual is at
-round-off; the LU of the full matrix is refactorised numerically (one pattern). The forces'
-sensitivities to the kinematics use the same matrix.
+round-off. With a few modes (the FE eye) its systems are solved by the Schur complement of the film
+block dR_u/du (solver.film.coupled_lu.SchurLU, as the Reynolds rows': PETSc's LU of the film block's
+fixed pattern refactorised numerically, the m x m Schur system by GMRES preconditioned with the last
+complement formed), and the SNES's Jacobian callback computes the blocks only (dR_u/dq = M Phi with M a
+fixed linear map of the cells' d R_u/d H_K, solver.film.ehd.border_map). dR_u/du is the rigid JFO
+film's generalised Jacobian, an M-matrix (solver.film.jfo), so the LU needs no pivoting (at a zero
+pivot SchurLU takes MUMPS for that factorisation); the dense borders, which made the whole matrix need
+MUMPS, only enter the complement. Node by node (Winkler) the whole coupled
+matrix is refactorised numerically (one pattern, MUMPS). The forces' sensitivities to the kinematics
+use the Jacobian at the solution, factorised there. The coefficients and their d/dW are evaluated in
+the coupled Newton's one compiled kernel.
 """
 
 from __future__ import annotations
@@ -39,10 +48,12 @@ from petsc4py import PETSc
 
 import numpy as np
 import scipy.sparse
+import ufl
+from ufl.algorithms import expand_derivatives
 
 from solver.errors import FilmNotConverged
-from solver.film.cavitation import configured_snes
-from solver.film.coupled_lu import DampedLU
+from solver.film.cavitation import ReducedShell, configured_snes
+from solver.film.coupled_lu import DampedLU, SchurLU
 from solver.film.jfo import JFOSolution, semismooth_reason
 from solver.film.jfo_midpoint import MidpointJFO
 from solver.film.transport import (
@@ -81,11 +92,19 @@ class JFORows:
         n = space.n
         self.n = n
         self.lower = np.full(n, space.cavitation_bound)
-        self.coefficients: list = []  # evaluated with the coupled Newton's derivatives: none
+        # the five coefficients, then their d/dW at the midpoints: evaluated in the coupled Newton's
+        # kernel, before its derivatives (one compiled kernel: the gap and flow factors computed once)
+        values = list(jfo_coefficients(space))
+        W = space.geometry.W
+        self.coefficients: list = values + [expand_derivatives(ufl.diff(e, W)) for e in values]
         self.set_prescribed(jfo_prescribed(space))
         is_bc = self.is_bc
-        # values, then d/dW at the midpoints
-        self.mid = MidpointJFO(operator, jfo_coefficients(space), [space.geometry.W], is_bc)
+        self.mid = MidpointJFO(operator, values, [W], is_bc)
+        # K, T and dR_u/du of the cached state: their values set per evaluation in the operator's CSR layout
+        layout = (operator.indices, operator.indptr)
+        self._K, self._T, self._J_uu = (
+            scipy.sparse.csr_matrix((np.zeros(len(operator.indices)), *layout), (n, n)) for _ in range(3)
+        )
         self.transport = FilmFractionTransport(
             space, operator, self.prescribed, (operator.indptr, operator.indices), also=self.mid
         )
@@ -108,17 +127,45 @@ class JFORows:
             self.is_bc[dofs] = True
 
     def attach(self, newton) -> None:
-        """Build the semismooth Newton on the coupled Newton's pattern (solver.film.ehd.CoupledNewton)."""
+        """Build the semismooth Newton on the coupled Newton's pattern (solver.film.ehd.CoupledNewton):
+        with a few modes its systems solved by the Schur complement of the film block (SchurLU, no
+        bounds), node by node (Winkler) by an LU of the whole fixed pattern (DampedLU, MUMPS)."""
         self.newton = weakref.proxy(newton)
         self.comm, self.A = newton.comm, newton.A
+        self.N, self.m = newton.N, newton.m
         self.snes = configured_snes(self.comm, "ehdjfo", {**OPTIONS, **(self.options or {})})
         self.snes.setFunction(newton.snes_residual, newton.r)
-        self.snes.setJacobian(self._jacobian, self.A)
         self.snes.setConvergenceTest(self._converged)
-        self.lu = DampedLU(self.comm, newton.limit)
+        self.blocks = None  # the Jacobian's blocks at the cached state (SchurLU reads them)
+        self._shell = None
+        if newton.dense:
+            # dR_u/dq = M Phi, M (n x n, the film's pattern) a fixed linear map of the cells' d R_u/d H_K
+            # (solver.film.ehd.border_map: its gap part; the JFO coefficients have no slope)
+            mapping, indices, indptr = newton.border
+            self._border = mapping.tocsc()[:, : 3 * len(self.op.cells)].tocsr()
+            self._M = scipy.sparse.csr_matrix((np.zeros(len(indices)), indices, indptr), (self.n, self.n))
+            self.lu = SchurLU(self, bounded=False)
+            self.lu.limit = newton.limit
+            # ``preonly`` never applies the operator: a shell, its callback computes the blocks only
+            self._shell = PETSc.Mat().createPython(
+                ((self.N, self.N), (self.N, self.N)), ReducedShell(), comm=self.comm
+            )
+            self._shell.setUp()
+            self.snes.setJacobian(self._blocks_only, self._shell)
+        else:
+            self.lu = DampedLU(self.comm, newton.limit)
+            self.snes.setJacobian(self._jacobian, self.A)
         pc = self.snes.getKSP().getPC()
         pc.setType(PETSc.PC.Type.PYTHON)
         pc.setPythonContext(self.lu)
+
+    def use_whole_lu(self) -> None:
+        """An LU of the whole coupled matrix (MUMPS, DampedLU) instead of SchurLU (the reference for its
+        tests)."""
+        self.lu.destroy()
+        self.lu = DampedLU(self.comm, self.newton.limit)
+        self.snes.getKSP().getPC().setPythonContext(self.lu)
+        self.snes.setJacobian(self._jacobian, self.A)
 
     # -- history ------------------------------------------------------------------------------------
     def prepare(self, time_s, history) -> None:
@@ -142,50 +189,77 @@ class JFORows:
     def rows(self, u: np.ndarray, values: np.ndarray) -> np.ndarray:
         """R_u (module docstring); caches this state's matrices and coefficients."""
         n, op = self.n, self.op
-        plus, theta = np.maximum(u, 0.0), 1.0 + np.minimum(u, 0.0)
-        c = self.mid.expression.eval(op.cells)  # (cell, 10): values, then d/dW at the midpoints
+        c = values  # (cell, 10): the coefficients, then d/dW at the midpoints
         self.c = c
-        K = scipy.sparse.csr_matrix(
-            (op.T_theta @ c[:, 0] + op.T_z @ c[:, 1], op.indices, op.indptr), shape=(n, n)
-        )
-        upwinded, self._d, self._pick = self.mid.upwinded(self.mid.T_C @ c[:, 2])
-        T = scipy.sparse.csr_matrix((upwinded, op.indices, op.indptr), shape=(n, n))
+        # the matrices' values in the operator's CSR layout, in fixed CSR matrices (no new scipy matrix)
+        self._K_values = self._K.data = op.T_theta @ c[:, 0] + op.T_z @ c[:, 1]
+        self._T_values, self._d, self._pick = self.mid.upwinded(self.mid.T_C @ c[:, 2])
+        self._T.data = self._T_values
         m, mdot = op.T_f @ c[:, 3], op.T_f @ c[:, 4]
-        storage_diagonal, history = mdot.copy(), np.zeros(n)
+        self._storage, self._history = mdot.copy(), np.zeros(n)
         if self.rate is not None:
             dT, theta_ref = self.rate
-            storage_diagonal += m / dT
-            history = -m * theta_ref / dT
-        self._K, self._T, self._m, self._storage = K, T, m, storage_diagonal
-        R_u = K @ plus + T @ theta + storage_diagonal * theta + history
-        self._unconstrained = R_u.copy()
+            self._storage += m / dT
+            self._history = -m * theta_ref / dT
+        self._m = m
+        self._unconstrained = self._film_rows(u)
+        R_u = self._unconstrained.copy()
         R_u[self.is_bc] = u[self.is_bc] - self.u_bc[self.is_bc]
         return R_u
 
+    def _film_rows(self, u: np.ndarray) -> np.ndarray:
+        """R_u without the prescribed rows, for u at the cached matrices (the cached q)."""
+        plus, theta = np.maximum(u, 0.0), 1.0 + np.minimum(u, 0.0)
+        return self._K @ plus + self._T @ theta + self._storage * theta + self._history
+
     def _jacobian(self, snes, x, J, Pmat) -> None:
+        """The SNES's Jacobian callback with the whole-matrix LU: the coupled matrix in the fixed pattern."""
         self._partition = x.getArray(readonly=True)[: self.n] > 0.0
         self.newton.snes_jacobian(snes, x, J, Pmat)
 
-    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
-        """The coupled Jacobian at the cached state (module docstring)."""
-        newton, op, n, c = self.newton, self.op, self.n, self.c
+    def _blocks_only(self, snes, x, J, Pmat) -> None:
+        """The SNES's Jacobian callback with SchurLU: the blocks, no coupled matrix (SchurLU reads the
+        blocks; ``preonly`` never applies the operator, a shell). The shell is assembled anew: its state
+        changes, so the PC is set up (SchurLU factorises) at every Newton iteration (newtonls keeps the
+        operator, and a PC whose operator's state has not changed keeps its factorisation)."""
+        self._partition = x.getArray(readonly=True)[: self.n] > 0.0
+        self.newton.evaluate_at(x)
+        self.blocks = self.jacobian_blocks()
+        J.assemble()
+
+    def jacobian_blocks(self) -> tuple:
+        """(dR_u/du, dR_u/dq, dR_q/du, dR_q/dq) at the cached state (module docstring): dR_u/du a CSR
+        matrix in the operator's layout (SchurLU refactorises its values numerically), the others dense
+        arrays with a few modes, scipy matrices node by node (Winkler)."""
+        newton, op, n, mid = self.newton, self.op, self.n, self.mid
         u = newton.state_x[:n]
         positive = u > 0.0
-        Ts = self._T + scipy.sparse.diags(self._storage)
-        J_uu = self._K @ scipy.sparse.diags(positive.astype(float)) + Ts @ scipy.sparse.diags(
-            (~positive).astype(float)
-        )
-        keep = scipy.sparse.diags((~self.is_bc).astype(float))
-        J_uu = (keep @ J_uu + scipy.sparse.diags(self.is_bc.astype(float))).tocsr()
+        # K diag(u > 0) + (T + diag(storage)) diag(u <= 0), the prescribed rows identity rows
+        values = np.where(positive[op.indices], self._K_values, self._T_values)
+        values[mid.diagonal] += np.where(positive, 0.0, self._storage)
+        values[self.is_bc[mid.rows]] = 0.0
+        values[mid.diagonal[self.is_bc]] = 1.0
+        J_uu = self._J_uu
+        J_uu.data = values
         # d R_u / d H_K at the vertices of each cell
-        local = self.mid.local_derivative(
-            c[:, 5:10], self.mid.local_bases(u, (self._d, self._pick), self.rate)
-        )
-        rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
-        dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
-        J_uq = keep @ (dH @ newton.average_Phi)
+        local = mid.local_derivative(self.c[:, 5:10], mid.local_bases(u, (self._d, self._pick), self.rate))
+        if newton.dense:
+            M = self._M
+            M.data = self._border @ local.ravel()
+            J_uq = (~self.is_bc)[:, None] * (M @ newton.Phi)
+        else:
+            rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
+            dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
+            J_uq = scipy.sparse.diags((~self.is_bc).astype(float)) @ (dH @ newton.average_Phi)
         slope = positive.astype(float) if newton.slope is None else positive * newton.slope
-        J_qu, J_qq = newton.bushing_blocks(slope, dense=False)
+        J_qu, J_qq = newton.bushing_blocks(slope, dense=newton.dense)
+        return J_uu, J_uq, J_qu, J_qq
+
+    def jacobian_matrix(self, format: str = "csr") -> scipy.sparse.spmatrix:
+        """The coupled Jacobian at the cached state (module docstring)."""
+        self.blocks = J_uu, J_uq, J_qu, J_qq = self.jacobian_blocks()
+        if self.newton.dense:
+            J_uq, J_qu, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_uq, J_qu, J_qq))
         return scipy.sparse.bmat([[J_uu, J_uq], [J_qu, J_qq]], format=format)
 
     # -- solve -------------------------------------------------------------------------------------
@@ -203,12 +277,12 @@ class JFORows:
         """Solve from the last (u, q); returns the Newton iterations."""
         newton, n = self.newton, self.n
         x0 = np.concatenate([np.where(self.is_bc, self.u_bc, self.u), newton.q])
-        r0 = newton.residual(x0)
-        # the flux scale: the film's residual at the full film with zero gauge pressure inside
-        reference = np.concatenate([np.where(self.is_bc, self.u_bc, 0.0), newton.q])
-        self._scale = max(
-            float(np.linalg.norm(newton.residual(reference)[:n])), float(np.linalg.norm(r0[n:])), 1e-12
-        )
+        r0 = newton.residual(x0)  # (cached: the SNES's first residual)
+        # the flux scale: the film's residual at the full film with zero gauge pressure inside (the
+        # prescribed rows zero), at the start's q: the matrices just evaluated
+        reference = self._film_rows(np.where(self.is_bc, self.u_bc, 0.0))
+        reference[self.is_bc] = 0.0
+        self._scale = max(float(np.linalg.norm(reference)), float(np.linalg.norm(r0[n:])), 1e-12)
         self._partition = None
         newton.x.setArray(x0)
         self.snes.solve(None, newton.x)
@@ -253,28 +327,41 @@ class JFORows:
         return self.transport.derivatives.kinematic_derivatives(self.u, self.rate)
 
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
-        """d(u, q)/dc = -J^-1 dR/dc at the last solution (J at its partition); the u part is returned
-        as d(P - P_cav) = diag(u > 0) du."""
+        """d(u, q)/dc = -J^-1 dR/dc at the last solution (J at its partition: the last Newton
+        iteration's is at the iterate before, so it is evaluated and factorised here); the u part is
+        returned as d(P - P_cav) = diag(u > 0) du."""
         newton = self.newton
-        x = PETSc.Vec().createWithArray(newton.state_x.copy(), comm=self.comm)
-        self._jacobian(None, x, self.A, self.A)
-        x.destroy()
-        self.lu.setUp(_Operators(self.A))
-        b, y = self.A.createVecs()
-        out = []
         positive = newton.state_x[: self.n] > 0.0
+        if isinstance(self.lu, SchurLU):
+            self.blocks = self.jacobian_blocks()  # (the cached state is the solution: ``solve``)
+            self.lu.factor(self.lu.everything)
+            b, y = self.lu.b, self.lu.x
+            solve = self.lu.solve_full
+        else:
+            x = PETSc.Vec().createWithArray(newton.state_x.copy(), comm=self.comm)
+            self._jacobian(None, x, self.A, self.A)
+            x.destroy()
+            self.lu.setUp(_Operators(self.A))
+            b, y = self.A.createVecs()
+            solve = self._whole_solve
+        out = []
         for d in dr:
             b.setArray(-np.asarray(d))
-            self.lu.ksp.solve(b, y)
-            if self.lu.ksp.getConvergedReason() < 0:
-                self.lu.failed = True
-                raise FilmNotConverged("elastic mass-conserving film: the sensitivities' LU failed", -1, 0)
+            solve(b, y)
             values = y.getArray(readonly=True).copy()
             values[: self.n] *= positive
             out.append(values)
-        b.destroy()
-        y.destroy()
+        if not isinstance(self.lu, SchurLU):
+            b.destroy()
+            y.destroy()
         return out
+
+    def _whole_solve(self, b: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y = J^-1 b by the whole-matrix LU (DampedLU's KSP, no step limit)."""
+        self.lu.ksp.solve(b, y)
+        if self.lu.ksp.getConvergedReason() < 0:
+            self.lu.failed = True
+            raise FilmNotConverged("elastic mass-conserving film: the sensitivities' LU failed", -1, 0)
 
     # -- outputs -----------------------------------------------------------------------------------
     def flows(self, forms) -> tuple[float, float]:
@@ -302,6 +389,8 @@ class JFORows:
     def close(self) -> None:
         self.lu.destroy()
         self.snes.destroy()
+        if self._shell is not None:
+            self._shell.destroy()
 
 
 class _Operators:

@@ -41,9 +41,15 @@ class SchurLU:
     six on the engine cycle). One Newton step then costs an LU of the film matrix (~0.4 ms at 1620
     dofs) and a few back-substitutions, against MUMPS's ~7 ms on the whole matrix with 72 modes.
     Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
+
+    The film is a cavitation block of the coupled Newton with the Jacobian's blocks at its last state
+    (``blocks``: the film block a CSR matrix in the operator's layout, the borders dense):
+    solver.film.coupled_reynolds.ReynoldsRows, whose VI gives the inactive set of each Newton step
+    (``bounded``), or solver.film.cavitation_jfo.JFORows, whose semismooth Newton has no bounds (every
+    unknown in every system: ``bounded=False``).
     """
 
-    def __init__(self, film):  # (solver.film.coupled_reynolds.ReynoldsRows)
+    def __init__(self, film, bounded: bool = True):
         self.film = weakref.proxy(film)  # (owned by the film's SNES: no reference cycle through C)
         op, n = film.op, film.n
         # the film block's pattern is the operator's (A(H) of ReynoldsRows.rows)
@@ -60,6 +66,12 @@ class SchurLU:
             PETSc.Vec().createSeq(film.N, comm=film.comm),
         )
         self._bP, self._xP = self.K.createVecs()
+        #: without bounds the set of every unknown, factorised for every Newton step
+        self.everything = (
+            None
+            if bounded
+            else PETSc.IS().createGeneral(np.arange(film.N, dtype=PETSc.IntType), comm=film.comm)
+        )
         self.inactive: PETSc.IS | None = None
         self.local: np.ndarray | None = None
         self.limit = None
@@ -76,7 +88,7 @@ class SchurLU:
     KRYLOV_TOLERANCE = 1e-12
 
     def factor(self, inactive: PETSc.IS) -> None:
-        """Factorise for this inactive set (indices into (P, q)); the blocks are ReynoldsRows' (the
+        """Factorise for this inactive set (indices into (u, q)); the blocks are the film's (the
         borders dense: SchurLU serves the modal film). Only the film block is factorised here; the Schur
         complement is formed (m back-substitutions) the first time, after a failure, when the last one
         no longer preconditions the Schur system well (``_schur_solve``) and for the sensitivities
@@ -231,7 +243,7 @@ class SchurLU:
 
     # -- PCShell interface ----------------------------------------------------------------------------
     def setUp(self, pc) -> None:  # noqa: N802 - PETSc's name
-        self.factor(self.film.snes.getVIInactiveSet())
+        self.factor(self.film.snes.getVIInactiveSet() if self.everything is None else self.everything)
 
     def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
         b = np.zeros(self.film.N)
@@ -245,8 +257,9 @@ class SchurLU:
         y.setArray(factor * step[self.local])
 
     def destroy(self, pc=None) -> None:
-        for obj in (self.ksp, self.K, self.b, self.x, self._bP, self._xP):
-            obj.destroy()
+        for obj in (self.ksp, self.K, self.b, self.x, self._bP, self._xP, self.everything):
+            if obj is not None:
+                obj.destroy()
 
 
 class DampedLU:
