@@ -137,6 +137,7 @@ class JFORows:
         self.snes.setFunction(newton.snes_residual, newton.r)
         self.snes.setConvergenceTest(self._converged)
         self.blocks = None  # the Jacobian's blocks at the cached state (SchurLU reads them)
+        self.fraction_sensitivities: list[np.ndarray] = []  # the last sensitivities' film fraction part
         self._shell = None
         if newton.dense:
             # dR_u/dq = M Phi, M (n x n, the film's pattern) a fixed linear map of the cells' d R_u/d H_K
@@ -329,7 +330,8 @@ class JFORows:
     def sensitivities(self, dr: list[np.ndarray]) -> list[np.ndarray]:
         """d(u, q)/dc = -J^-1 dR/dc at the last solution (J at its partition: the last Newton
         iteration's is at the iterate before, so it is evaluated and factorised here); the u part is
-        returned as d(P - P_cav) = diag(u > 0) du."""
+        returned as d(P - P_cav) = diag(u > 0) du; the film fraction's part, dtheta = diag(u <= 0) du (theta
+        = 1 + u there), is kept in ``fraction_sensitivities`` (solver.film.solvers.CoupledFilm reads it)."""
         newton = self.newton
         positive = newton.state_x[: self.n] > 0.0
         if isinstance(self.lu, SchurLU):
@@ -344,11 +346,12 @@ class JFORows:
             self.lu.setUp(_Operators(self.A))
             b, y = self.A.createVecs()
             solve = self._whole_solve
-        out = []
+        out, self.fraction_sensitivities = [], []
         for d in dr:
             b.setArray(-np.asarray(d))
             solve(b, y)
             values = y.getArray(readonly=True).copy()
+            self.fraction_sensitivities.append(np.where(positive, 0.0, values[: self.n]))
             values[: self.n] *= positive
             out.append(values)
         if not isinstance(self.lu, SchurLU):

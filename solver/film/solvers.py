@@ -17,8 +17,6 @@ import logging
 import math
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
 import ufl
 from ufl.algorithms import expand_derivatives
 
@@ -351,20 +349,14 @@ class CoupledFilm:
         """Pressure and deformation together (solver.film.ehd), and the film fraction's when the forms
         weight the Couette shear by it (solver.film.forms; None otherwise).
 
-        The cavitation block returns the pressure's part of du only (u > 0); the film fraction's (theta
-        = 1 + u where u <= 0) comes from a second solve with the coupled Jacobian at the solution (the
-        block's sensitivities leave the Newton's cached state there), by scipy's sparse LU: one more
-        factorisation per Jacobian, until the block returns both parts of du."""
+        The cavitation block's sensitivities return the pressure's part of du (u > 0) and keep the film
+        fraction's (theta = 1 + u where u <= 0) from the same factorisation."""
         ehd = self.ehd
         names = list(self.space.geometry.variables())
         rhs = ehd.residual_derivatives(self.block.film_derivatives(dr), names)
         d = ehd.sensitivities(rhs)
         n = ehd.n
-        dF = None
-        if self.forms.film_fraction is not None:
-            lu = scipy.sparse.linalg.splu(ehd.jacobian_matrix("csc"))
-            cavitated = self.block.film_state()[:n] <= 0.0
-            dF = [np.where(cavitated, lu.solve(-np.asarray(r))[:n], 0.0) for r in rhs]
+        dF = list(self.block.fraction_sensitivities) if self.forms.film_fraction is not None else None
         return _as_vectors(dr[0], [d_k[:n] for d_k in d]), [ehd.deformation(d_k[n:]) for d_k in d], dF
 
     def film_fraction(self) -> np.ndarray | None:
