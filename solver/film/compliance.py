@@ -97,7 +97,6 @@ from dolfinx.fem import petsc as fem_petsc
 from ufl.core.expr import Expr
 
 from solver.errors import out_of_range
-from solver.film.bushings import DEFAULT_TOLERANCE
 from solver.film.eye_mesh import DEFAULT_ELEMENT_SIZE, TAGS, EyeGeometry, eye_mesh
 
 log = logging.getLogger(__name__)
@@ -606,7 +605,6 @@ def _write_cache(compliance: Compliance, path: Path) -> None:
 __all__ = [
     "DEFAULT_ELEMENT_SIZE",
     "DEFAULT_MODES",
-    "DEFAULT_TOLERANCE",
     "TAGS",
     "Compliance",
     "ElasticEye",

@@ -119,11 +119,16 @@ class SchurLU:
         rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(self.B), comm=self.film.comm)
         X = PETSc.Mat().createDense((n, m), comm=self.film.comm)
         X.setUp()
-        self.ksp.getPC().getFactorMatrix().matSolve(rhs, X)
-        X_array = X.getDenseArray()
-        S = self.D - self.C @ X_array
-        rhs.destroy()
-        X.destroy()
+        try:  # (a factorisation that failed, MUMPS's at a far iterate, refuses to solve)
+            self.ksp.getPC().getFactorMatrix().matSolve(rhs, X)
+            X_array = X.getDenseArray().copy()
+        except PETSc.Error:
+            X_array = np.full((n, m), np.nan)
+        finally:
+            rhs.destroy()
+            X.destroy()
+        with np.errstate(all="ignore"):
+            S = self.D - self.C @ X_array
         self.S = scipy.linalg.lu_factor(S, check_finite=False)
         self._exact = True
         self.n_formed += 1
@@ -133,7 +138,11 @@ class SchurLU:
     def _film_solve(self, b: np.ndarray) -> np.ndarray:
         """A^-1 b with the film block's factorisation (one back-substitution)."""
         self._bP.setArray(b)
-        self.ksp.solve(self._bP, self._xP)
+        try:
+            self.ksp.solve(self._bP, self._xP)
+        except PETSc.Error:  # (MUMPS's solve phase after its factorisation failed)
+            self.failed = True
+            return np.full_like(b, np.nan)
         if self.ksp.getConvergedReason() < 0:
             self.failed = True
         return self._xP.getArray(readonly=True).copy()
@@ -148,6 +157,9 @@ class SchurLU:
         if self._exact:
             return self._schur_lu_solve(r)
         norm = float(np.linalg.norm(r))
+        if not math.isfinite(norm):  # the residual of a far iterate overflowed: the step is NaN, the
+            self.failed = True  # SNES fails and the film solve with it (FilmNotConverged)
+            return np.full_like(r, np.nan)
         if norm == 0.0:
             return np.zeros_like(r)
         k_max = self.MAX_KRYLOV
@@ -225,10 +237,16 @@ class SchurLU:
         self._package = package
 
     def _solve(self, b: np.ndarray) -> np.ndarray:
+        """K^-1 b through the Schur complement. A far iterate can overflow (its residual, or the
+        step): the result is then not finite, which the callers test (a failed step, FilmNotConverged),
+        so numpy's warnings about it are silenced here rather than shown to the user."""
         n = self.film.n
-        y0 = self._film_solve(b[:n])
-        dq = self._schur_solve(b[n:] - self.C @ y0)
-        return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
+        if self.failed:  # (this factorisation failed: no step)
+            return np.full_like(b, np.nan)
+        with np.errstate(all="ignore"):
+            y0 = self._film_solve(b[:n])
+            dq = self._schur_solve(b[n:] - self.C @ y0)
+            return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """x = K^-1 b (b must vanish on the active set of the factorisation). For the sensitivities:

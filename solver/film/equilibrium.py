@@ -10,6 +10,12 @@ import numpy as np
 from solver.errors import FilmNotConverged, InputError, out_of_range
 from solver.film.types import MAX_ECCENTRICITY, STALL_TOLERANCE, Equilibrium, Kinematics
 
+#: the bounds of the largest change of the eccentricity [c] of a Newton step with an elastic bushing
+ELASTIC_STEP = (0.02, 0.5)
+#: failed film solves in one step after which the film is taken as unsolvable a step further (each
+#: costs 200 iterations of the semismooth method; on the way to an equilibrium up to 4 came in a row)
+FAILED_SOLVES = 6
+
 
 def equilibrium(
     model,
@@ -27,8 +33,15 @@ def equilibrium(
     Newton's method with the film's exact Jacobian, in the coordinates ``s = -ln(1 - eps/eps_lim)`` and
     the angle ``phi`` of the eccentricity: near eps = 1 the film force grows like (1 - eps)^-2 and the
     asperity force exponentially in h/sigma, both far more linear in s than in eps. Each step is
-    halved until the force residual decreases. eps_lim is the model's max_eccentricity_ratio: 1 when
-    rigid; an elastic bushing lets the pin go further, into the deformed bushing.
+    halved until the force residual decreases. eps_lim is the model's reach under the load
+    (solver.film.model.Film.reach): 1 when rigid; an elastic bushing lets the pin go further, into the
+    deformed bushing, by what its compliance gives under the load.
+
+    With an elastic bushing each film solve starts from the last iterate's solution moved along its
+    sensitivities (Film.start_near), and the step is held in a trust region of the eccentricity (from
+    h_min / c, within ELASTIC_STEP; doubled after a step it cut, shrunk to a step the halving left): a
+    far step leaves the film's Newton a start it cannot finish (a failed solve costs 2-40 s, a
+    followed one 0.1-1 s).
 
     Args:
         load: external load on the journal, bushing frame [N].
@@ -43,6 +56,7 @@ def equilibrium(
 
     Raises:
         InputError: the load cannot be carried below MAX_ECCENTRICITY, or Newton's method stalls.
+        FilmNotConverged: the film cannot be solved at the first iterate, or a step further from one.
     """
     W = np.asarray(load, float)
     W_norm = float(np.linalg.norm(W))
@@ -52,7 +66,8 @@ def equilibrium(
         raise out_of_range("load_frame", repr(load_frame), "'bushing' or 'space'")
     turning = omega_bushing if load_frame == "space" else 0.0  # the eccentricity turns at -turning
     wedge = omega_journal + omega_bushing if load_frame == "space" else omega_journal - omega_bushing
-    c, limit = model.bearing.clearance, model.max_eccentricity_ratio
+    c, limit = model.bearing.clearance, model.reach(W)
+    elastic = limit > 1.0
     s_max = -math.log(1 - MAX_ECCENTRICITY)
     if guess is None:
         angle = math.atan2(W[1], W[0]) + math.copysign(math.radians(50), wedge or 1.0)
@@ -68,10 +83,12 @@ def equilibrium(
         _, e_vec = ecc(x_vec)
         rate = (turning * float(e_vec[1]), -turning * float(e_vec[0]))  # -omega S e (from_global)
         kin = Kinematics((float(e_vec[0]), float(e_vec[1])), rate, omega_journal, omega_bushing)
+        model.start_near(kin)
         res = model.solve(kin)
         return kin, res, np.asarray(res.force) + W
 
     kin, res, r = residual(x)
+    radius = None
     for iteration in range(max_iterations):
         if np.linalg.norm(r) <= tol * W_norm:
             return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
@@ -83,17 +100,25 @@ def equilibrium(
         J = dF_de @ (c * np.column_stack([(limit - eps) * u, eps * u_perp]))
         step = -np.linalg.solve(J, r)
         lam = 1.0
+        moved = math.hypot((limit - eps) * step[0], eps * step[1])  # |delta e| / c (linearised)
+        if elastic:  # a trust region: the film's warm start stays near
+            if radius is None:
+                radius = min(max(res.h_min / c, ELASTIC_STEP[0]), ELASTIC_STEP[1])
+            lam = min(1.0, radius / moved) if moved > 0 else 1.0
+        first, failures = lam, 0
         while True:
             trial = x + lam * step
             trial[0] = min(max(trial[0], 1e-4), s_max)
             try:
                 kin_t, res_t, r_t = residual(trial)
-            except FilmNotConverged:  # too far a step for the film (an elastic one): shorter
-                r_t = np.full(2, np.inf)
+                failure = None
+            except FilmNotConverged as err:  # too far a step for the film (an elastic one): shorter
+                r_t, failure = np.full(2, np.inf), err
+                failures += 1
             if np.linalg.norm(r_t) < np.linalg.norm(r):
                 break
             lam *= 0.5
-            if lam < 1e-3:
+            if lam < 1e-3 * first or failures == FAILED_SOLVES:
                 if x[0] >= s_max * (1 - 1e-9) and np.dot(res.force, W) < 0 and res.load < W_norm:
                     raise InputError(
                         f"load = {W_norm:g} N cannot be carried (eccentricity ratio reaches "
@@ -103,9 +128,18 @@ def equilibrium(
                 # very near eps = 1 its kinks put a floor of ~1e-4 |W| under the residual.
                 if np.linalg.norm(r) <= STALL_TOLERANCE * W_norm:
                     return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
+                if failure is not None:  # the film, not the search: it cannot be solved a step further
+                    raise FilmNotConverged(
+                        f"load = {W_norm:g} N: the film cannot be solved past eccentricity ratio {eps:.6f} "
+                        f"(h_min {res.h_min:.3g} m, it carries {res.load:.6g} N)",
+                        failure.reason,
+                        failure.iterations,
+                    )
                 raise InputError(
                     f"load = {W_norm:g} N: the equilibrium search stalled at eccentricity ratio "
                     f"{eps:.6f} (residual {np.linalg.norm(r):.3g} N)"
                 )
+        if elastic:  # grown after a step the region cut, shrunk to the step a failure left
+            radius = min(2 * radius, ELASTIC_STEP[1]) if lam == first < 1.0 else min(radius, lam * moved)
         x, kin, res, r = trial, kin_t, res_t, r_t
     raise InputError(f"load = {W_norm:g} N: no equilibrium found in {max_iterations} Newton iterations")

@@ -26,6 +26,9 @@ class FilmSolver(Protocol):
     has_history: bool  # its solves depend on committed states (solver.film.history)
     max_eccentricity_ratio: float  # |e| / c below which it is defined
 
+    def reach(self, load: np.ndarray) -> float: ...  # max_eccentricity_ratio for a static load [N], raised
+    def start_near(self, eps: np.ndarray) -> None: ...  # warm start moved along the last sensitivities
+
     def prepare(self, time_s: float | None, history: FilmHistory) -> None: ...  # rates from the history
     def solve(self) -> int: ...  # at the space's constants; the pressure in space.P; iterations
     def fall_back(self) -> bool: ...  # after a failed solve: True if a retry may succeed

@@ -125,6 +125,21 @@ class Film:
         go further, into the deformed bushing."""
         return self.solver.max_eccentricity_ratio
 
+    def reach(self, load) -> float:
+        """|e| / c the journal may reach under the static ``load`` [N] (bushing frame, on the journal),
+        the equilibrium's bound: max_eccentricity_ratio for a rigid film; an elastic bushing raises its
+        max_eccentricity_ratio to what its compliance gives under that load
+        (solver.film.solvers.CoupledFilm.reach)."""
+        return self.solver.reach(load)
+
+    def start_near(self, kin: Kinematics) -> None:
+        """Make the next solve (at ``kin``) start from the last solution whose Jacobian was computed,
+        moved to first order along its sensitivities: an elastic film's (CoupledFilm.start_near; a rigid
+        film keeps its warm start). For a search that computes a Jacobian at each step (the
+        equilibrium); the dynamics keep the last solution."""
+        eps = np.asarray(in_frame(kin, self._frame_angle(kin)).ecc, float) / self.bearing.clearance
+        self.solver.start_near(eps)
+
     # -- history ------------------------------------------------------------------------------------
     @property
     def has_history(self) -> bool:

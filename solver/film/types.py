@@ -33,7 +33,8 @@ STALL_TOLERANCE = 1e-3  # relative force residual accepted when Newton's method 
 DEFAULT_MESH_SIZE = 0.07  # element size / R: ~1600 nodes on the half film for B/D = 1 (bench/)
 AXIAL_ELEMENTS = 10  # at least this many elements across the half width (bench/bearing_mesh_convergence.py)
 
-#: |e| / c the pin may reach in an elastic bushing (the deformation then holds the film open)
+#: |e| / c the pin may reach in an elastic bushing (the deformation then holds the film open); under a
+#: static load the equilibrium raises it to what the compliance gives (solver.film.solvers.CoupledFilm.reach)
 ELASTIC_MAX_ECCENTRICITY = 2.0
 
 
