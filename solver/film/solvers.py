@@ -397,8 +397,8 @@ class CoupledFilm:
         weight the Couette shear by it (solver.film.forms; None otherwise).
 
         The cavitation block's sensitivities return the pressure's part of du (u > 0) and keep the film
-        fraction's (theta = 1 + u where u <= 0) from the same factorisation. The state's derivatives with respect to the eccentricity are kept for
-        ``start_near``."""
+        fraction's (theta = 1 + u where u <= 0) from the same factorisation. The state's derivatives
+        with respect to the eccentricity are kept for ``start_near``."""
         ehd = self.ehd
         names = list(self.space.geometry.variables())
         rhs = ehd.residual_derivatives(self.block.film_derivatives(dr), names)
