@@ -164,6 +164,7 @@ class CoupledNewton:
             self.Phi_modes = Phi[:, n:].toarray()
             self.average = average
             self._pattern_rows = np.repeat(np.arange(n), np.diff(op.indptr))  # the row of each entry of M
+            self._to_nodes_csc = self.to_nodes.tocsc()  # (its columns of the cells in contact)
         self._set_gains(gains)
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix(
@@ -298,21 +299,20 @@ class CoupledNewton:
         d = self.gains[:n] * self.areas * slope  # dR_L/du = -diag(d)
         touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
         kept = np.unique(self.op.dofs[touching])  # their vertices: the local unknowns kept
-        modes = self.modes
-        # the contact's nodal forces per W: to_nodes diag(dP_c/dW) average, on the cells in contact
-        contact = (
-            self.to_nodes[:, touching] @ scipy.sparse.diags(k[touching, 5]) @ self.average[touching]
-        ).tocsr()
-        contact_kept = contact[kept]  # (kept, n): its rows outside ``kept`` vanish
+        modes, size = self.modes, len(kept)
+        # the contact's nodal forces per W, to_nodes diag(dP_c/dW) average: its entries are in kept x kept
+        contact = (self._to_nodes_csc[:, touching][kept].toarray() * k[touching, 5][None, :]) @ (
+            self.average[touching][:, kept].toarray()
+        )
         g_kept = self.gains[kept, None]
         # the borders' rows' blocks: (L_kept, modes) against (L_kept, modes)
-        D = np.identity(len(kept) + modes)
-        D[: len(kept), : len(kept)] -= g_kept * contact_kept[:, kept].toarray()
-        if modes:
-            D[: len(kept), len(kept) :] = -g_kept * (contact_kept @ self.Phi_modes)
-            contact_modes = contact.T @ self.gPhiT_modes.T  # (n, modes): (g Phi^T contact)^T
-            D[len(kept) :, : len(kept)] = -contact_modes[kept].T
-            D[len(kept) :, len(kept) :] -= (self.Phi_modes.T @ contact_modes).T
+        D = np.identity(size + modes)
+        D[:size, :size] -= g_kept * contact
+        if modes and size:
+            Phi_kept, gPhiT_kept = self.Phi_modes[kept], self.gPhiT_modes[:, kept]
+            D[:size, size:] = -g_kept * (contact @ Phi_kept)
+            D[size:, :size] = -gPhiT_kept @ contact
+            D[size:, size:] -= gPhiT_kept @ (contact @ Phi_kept)
         B_modes = (rows[:, None] * (L @ self.Phi_modes)) if modes else np.zeros((n, 0))  # dR_u/dq_modes
         C_modes = -self.gPhiT_modes * (self.areas * slope)[None, :]  # dR_modes/du
         return LayeredBlocks(J_uu, L, d, kept, B_modes, C_modes, D)
