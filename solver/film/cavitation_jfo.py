@@ -33,10 +33,10 @@ complement formed), and the SNES's Jacobian callback computes the blocks only (d
 fixed linear map of the cells' d R_u/d H_K, solver.film.ehd.border_map). dR_u/du is the rigid JFO
 film's generalised Jacobian, an M-matrix (solver.film.jfo), so the LU needs no pivoting (at a zero
 pivot SchurLU takes MUMPS for that factorisation); the dense borders, which made the whole matrix need
-MUMPS, only enter the complement. Node by node (Winkler) the whole coupled
-matrix is refactorised numerically (one pattern, MUMPS). The forces' sensitivities to the kinematics
-use the Jacobian at the solution, factorised there. The coefficients and their d/dW are evaluated in
-the coupled Newton's one compiled kernel.
+MUMPS, only enter the complement. Node by node (the layer basis, Winkler) SchurLU eliminates the
+local deformation first (solver.film.ehd.LayeredBlocks: the film block J_uu + L diag(d)). The forces'
+sensitivities to the kinematics use the Jacobian at the solution, factorised there. The coefficients
+and their d/dW are evaluated in the coupled Newton's one compiled kernel.
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ the unprojected pressure (a mixed state at h_min = 0.5 um from a cold start: no 
 iterations). The semismooth (Fischer-Burmeister) method converges from there (35 iterations) but only
 linearly where the complementarity is degenerate (pressure and residual both ~0), so it brings the
 iterate near the solution (FAR_TOLERANCE of the start's residual) and the reduced-space method finishes.
-With a few modes the reduced systems are solved by the Schur complement of the film block (SchurLU),
-node by node (Winkler) by an LU of the whole fixed pattern (MUMPS).
+The reduced systems are solved by the Schur complement of the film block (SchurLU; node by node, the
+layer basis and Winkler, with the local deformation eliminated first: solver.film.ehd.LayeredBlocks).
 """
 
 from __future__ import annotations

@@ -37,8 +37,11 @@ same UFL expressions as the rigid film, evaluated at the cell midpoints: the ope
 engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
 systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
 block's fixed pattern; the m x m Schur system by GMRES preconditioned with the last complement formed,
-which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler)
-the matrix keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS).
+which is formed anew, m back-substitutions, only when that converges slowly). Node by node (the FE
+eye's layer basis, W = q_L + Phi q, and a WinklerLayer) SchurLU first eliminates q_L where its row is
+q_L = g F(P) (every node off the cells in asperity contact): the film block becomes J_uu + L diag(d),
+L = dR_u/dW in the film's own pattern (``border_map``), d = g a dp/du, and the kept q_L and the modes
+are the borders (``LayeredBlocks``); the whole matrix (MUMPS) remains the semismooth far start's.
 Either way the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
 Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
