@@ -33,10 +33,10 @@ complement formed), and the SNES's Jacobian callback computes the blocks only (d
 fixed linear map of the cells' d R_u/d H_K, solver.film.ehd.border_map). dR_u/du is the rigid JFO
 film's generalised Jacobian, an M-matrix (solver.film.jfo), so the LU needs no pivoting (at a zero
 pivot SchurLU takes MUMPS for that factorisation); the dense borders, which made the whole matrix need
-MUMPS, only enter the complement. Node by node (Winkler) the whole coupled
-matrix is refactorised numerically (one pattern, MUMPS). The forces' sensitivities to the kinematics
-use the Jacobian at the solution, factorised there. The coefficients and their d/dW are evaluated in
-the coupled Newton's one compiled kernel.
+MUMPS, only enter the complement. Node by node (the layer basis, Winkler) SchurLU eliminates the
+local deformation first (solver.film.ehd.LayeredBlocks: the film block J_uu + L diag(d)). The forces'
+sensitivities to the kinematics use the Jacobian at the solution, factorised there. The coefficients
+and their d/dW are evaluated in the coupled Newton's one compiled kernel.
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ class JFORows:
         self.blocks = None  # the Jacobian's blocks at the cached state (SchurLU reads them)
         self.fraction_sensitivities: list[np.ndarray] = []  # the last sensitivities' film fraction part
         self._shell = None
-        if newton.dense:
+        if newton.dense or newton.layered:
             # dR_u/dq = M Phi, M (n x n, the film's pattern) a fixed linear map of the cells' d R_u/d H_K
             # (solver.film.ehd.border_map: its gap part; the JFO coefficients have no slope)
             mapping, indices, indptr = newton.border
@@ -225,13 +225,14 @@ class JFORows:
         operator, and a PC whose operator's state has not changed keeps its factorisation)."""
         self._partition = x.getArray(readonly=True)[: self.n] > 0.0
         self.newton.evaluate_at(x)
-        self.blocks = self.jacobian_blocks()
+        self.blocks = self.jacobian_blocks(layered=self.newton.layered)
         J.assemble()
 
-    def jacobian_blocks(self) -> tuple:
+    def jacobian_blocks(self, layered: bool = False):
         """(dR_u/du, dR_u/dq, dR_q/du, dR_q/dq) at the cached state (module docstring): dR_u/du a CSR
         matrix in the operator's layout (SchurLU refactorises its values numerically), the others dense
-        arrays with a few modes, scipy matrices node by node (Winkler)."""
+        arrays with a few modes, scipy matrices node by node (Winkler); ``layered`` (the layer basis, for
+        SchurLU): the blocks as solver.film.ehd.LayeredBlocks."""
         newton, op, n, mid = self.newton, self.op, self.n, self.mid
         u = newton.state_x[:n]
         positive = u > 0.0
@@ -244,6 +245,11 @@ class JFORows:
         J_uu.data = values
         # d R_u / d H_K at the vertices of each cell
         local = mid.local_derivative(self.c[:, 5:10], mid.local_bases(u, (self._d, self._pick), self.rate))
+        slope = positive.astype(float) if newton.slope is None else positive * newton.slope
+        if layered:
+            M = self._M
+            M.data = self._border @ local.ravel()
+            return newton.layered_blocks(J_uu, M, (~self.is_bc).astype(float), slope)
         if newton.dense:
             M = self._M
             M.data = self._border @ local.ravel()
@@ -252,7 +258,6 @@ class JFORows:
             rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
             dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
             J_uq = scipy.sparse.diags((~self.is_bc).astype(float)) @ (dH @ newton.average_Phi)
-        slope = positive.astype(float) if newton.slope is None else positive * newton.slope
         J_qu, J_qq = newton.bushing_blocks(slope, dense=newton.dense)
         return J_uu, J_uq, J_qu, J_qq
 
@@ -335,7 +340,8 @@ class JFORows:
         newton = self.newton
         positive = newton.state_x[: self.n] > 0.0
         if isinstance(self.lu, SchurLU):
-            self.blocks = self.jacobian_blocks()  # (the cached state is the solution: ``solve``)
+            # (the cached state is the solution: ``solve``)
+            self.blocks = self.jacobian_blocks(layered=newton.layered)
             self.lu.factor(self.lu.everything)
             b, y = self.lu.b, self.lu.x
             solve = self.lu.solve_full

@@ -15,6 +15,7 @@ import scipy.linalg
 import scipy.linalg.lapack
 
 from solver.errors import FilmNotConverged
+from solver.film.ehd import LayeredBlocks
 
 _getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", (np.zeros(1),))
 
@@ -81,6 +82,12 @@ class SchurLU:
         self.S = None
         self._exact = False
         self.n_formed = self.n_krylov = 0  # Schur complements formed, Krylov iterations (statistics)
+        # the layer basis (solver.film.ehd.LayeredBlocks): (kept nodes, dR_u/dq_L on the eliminated columns,
+        # d there) of the current factorisation, the kept nodes of the last complement formed, the row of
+        # each entry of the film block's pattern
+        self._layer: tuple | None = None
+        self._kept_formed: np.ndarray | None = None
+        self._rows = np.repeat(np.arange(n), np.diff(op.indptr))
 
     #: Krylov iterations on the Schur system before its complement is formed anew (m back-substitutions)
     MAX_KRYLOV = 6
@@ -94,10 +101,14 @@ class SchurLU:
         no longer preconditions the Schur system well (``_schur_solve``) and for the sensitivities
         (``solve_full``)."""
         film, n = self.film, self.film.n
-        A, B, C, D = film.blocks
         keep = np.zeros(film.N, dtype=bool)
         keep[inactive.getIndices()] = True
         active = np.flatnonzero(~keep[:n]).astype(PETSc.IntType)
+        if isinstance(film.blocks, LayeredBlocks):
+            A, B, C, D = self._eliminate(film.blocks, keep[:n])
+        else:
+            A, B, C, D = film.blocks
+            self._layer = None
         self.K.setValuesCSR(self._indptr, self._indices, A.data)
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
@@ -108,14 +119,45 @@ class SchurLU:
         self.C[:, active] = 0.0
         self.D = D
         self._exact = False  # whether self.S is this factorisation's Schur complement
-        if self.S is None or not np.all(np.isfinite(self.S[0])):  # (a failed one preconditions nothing)
+        if (
+            self.S is None
+            or self.S[0].shape[0] != D.shape[0]
+            or not np.all(np.isfinite(self.S[0]))  # (a failed one preconditions nothing)
+            or (self._layer is not None and not np.array_equal(self._layer[0], self._kept_formed))
+        ):
             self._form_schur()
         self.inactive = inactive
         self.local = inactive.getIndices()
 
+    def _eliminate(self, blocks: LayeredBlocks, inactive: np.ndarray) -> tuple:
+        """The layer basis's blocks with the node-by-node deformation q_L eliminated where its row is
+        dq_L - d du = b_L (every node off the cells in asperity contact), so that the film block keeps
+        its pattern: ``A + L diag(d)`` on those columns; the borders are q_L at the other nodes
+        (``blocks.kept``) and the modes. Keeps what ``_solve`` needs to eliminate and recover q_L."""
+        n, kept = self.film.n, blocks.kept
+        free = np.ones(n)
+        free[kept] = 0.0
+        d_free = blocks.d * free
+        L_rows = blocks.L.copy()  # dR_u/dq_L on the inactive rows (the active ones are no equations)
+        L_rows.data = L_rows.data * inactive[self._rows]
+        A = blocks.A.copy()
+        A.data = A.data + L_rows.data * d_free[self._indices]
+        L_free = L_rows.copy()  # its columns of the eliminated q_L
+        L_free.data = L_free.data * free[self._indices]
+        B = np.hstack([L_rows[:, kept].toarray(), blocks.B_modes])
+        C = np.zeros((len(kept) + blocks.C_modes.shape[0], n))
+        C[np.arange(len(kept)), kept] = -blocks.d[kept]
+        C[len(kept) :] = blocks.C_modes
+        self._layer = (kept, L_free, d_free)
+        return A, B, C, blocks.D
+
     def _form_schur(self) -> None:
         """S = D - C A^-1 B of the current factorisation (m back-substitutions, one dense LU)."""
-        n, m = self.film.n, self.film.m
+        n, m = self.film.n, self.B.shape[1]
+        self._kept_formed = None if self._layer is None else self._layer[0]
+        if m == 0:  # no borders (the layer basis without modes and contact): nothing to form
+            self.S, self._exact = (np.zeros((0, 0)), np.zeros(0, np.int32)), True
+            return
         rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(self.B), comm=self.film.comm)
         X = PETSc.Mat().createDense((n, m), comm=self.film.comm)
         X.setUp()
@@ -244,9 +286,22 @@ class SchurLU:
         if self.failed:  # (this factorisation failed: no step)
             return np.full_like(b, np.nan)
         with np.errstate(all="ignore"):
-            y0 = self._film_solve(b[:n])
-            dq = self._schur_solve(b[n:] - self.C @ y0)
-            return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
+            if self._layer is None:
+                y0 = self._film_solve(b[:n])
+                dq = self._schur_solve(b[n:] - self.C @ y0)
+                return np.concatenate([y0 - self._film_solve(self.B @ dq), dq])
+            # the layer basis: b = (b_u, b_L, b_modes); dq_L = b_L + d du off the kept nodes (``_eliminate``)
+            kept, L_free, d_free = self._layer
+            b_u, b_L = b[:n], b[n : 2 * n]
+            y0 = self._film_solve(b_u - L_free @ b_L)
+            if self.B.shape[1]:
+                dq = self._schur_solve(np.concatenate([b_L[kept], b[2 * n :]]) - self.C @ y0)
+                du = y0 - self._film_solve(self.B @ dq)
+            else:  # no contact, no modes (a WinklerLayer): the film block is the whole system
+                dq, du = np.zeros(0), y0
+            dL = b_L + d_free * du
+            dL[kept] = dq[: len(kept)]
+            return np.concatenate([du, dL, dq[len(kept) :]])
 
     def solve_full(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """x = K^-1 b (b must vanish on the active set of the factorisation). For the sensitivities:

@@ -9,8 +9,8 @@ the unprojected pressure (a mixed state at h_min = 0.5 um from a cold start: no 
 iterations). The semismooth (Fischer-Burmeister) method converges from there (35 iterations) but only
 linearly where the complementarity is degenerate (pressure and residual both ~0), so it brings the
 iterate near the solution (FAR_TOLERANCE of the start's residual) and the reduced-space method finishes.
-With a few modes the reduced systems are solved by the Schur complement of the film block (SchurLU),
-node by node (Winkler) by an LU of the whole fixed pattern (MUMPS).
+The reduced systems are solved by the Schur complement of the film block (SchurLU; node by node, the
+layer basis and Winkler, with the local deformation eliminated first: solver.film.ehd.LayeredBlocks).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ class ReynoldsRows:
         # the reduced-space method's and the sensitivities' factorisation: with a few modes by the Schur
         # complement of the film block (SchurLU), node by node deformation (Winkler) by an LU of the whole
         # fixed pattern
-        self.lu = SchurLU(self) if newton.dense else self._whole_lu()
+        self.lu = SchurLU(self) if newton.dense or newton.layered else self._whole_lu()
         self.lu.limit = newton.limit
         self._shell = None
         if isinstance(self.lu, SchurLU):  # the reduced-space SNES then needs the blocks only
@@ -136,9 +136,10 @@ class ReynoldsRows:
         self._A = scipy.sparse.csr_matrix((op.values, op.indices, op.indptr), shape=(n, n))  # dR_P/dP
         return self._A @ u + op.source
 
-    def jacobian_blocks(self) -> tuple:
+    def jacobian_blocks(self, layered: bool = False):
         """(dR_P/dP, dR_P/dq, dR_q/dP, dR_q/dq) at the cached state: scipy matrices, and with a few modes
-        the last three dense arrays."""
+        the last three dense arrays; ``layered`` (the layer basis, for SchurLU): the blocks as
+        solver.film.ehd.LayeredBlocks."""
         newton = self.newton
         op, k, n = self.op, newton.k, self.n
         P = newton.P.x.array[:n].copy()
@@ -151,11 +152,14 @@ class ReynoldsRows:
         )  # d(A_K P_K + l_K)/dH_K at each vertex
         n_cells = len(op.cells)
         slopes = np.repeat(k[:, 3] * op.weight / 3.0, 3)
-        if newton.dense:  # the same blocks as dense arrays (solver.film.ehd.border_map)
+        if newton.dense or layered:  # the same blocks as dense arrays (solver.film.ehd.border_map)
             mapping, indices, indptr = newton.border
             M = scipy.sparse.csr_matrix(
                 (mapping @ np.concatenate([local.ravel(), slopes]), indices, indptr), shape=(n, n)
             )
+            if layered:
+                slope = np.ones(n) if newton.slope is None else newton.slope
+                return newton.layered_blocks(self._A, M, newton.interior, slope)
             J_Pq = newton.interior[:, None] * (M @ newton.Phi)
         else:
             rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
@@ -176,7 +180,7 @@ class ReynoldsRows:
         """The reduced-space SNES's Jacobian callback with SchurLU: the blocks, no coupled matrix (SchurLU
         reads the blocks; ``preonly`` never applies the operator, a shell)."""
         self.newton.evaluate_at(x)
-        self.blocks = self.jacobian_blocks()
+        self.blocks = self.jacobian_blocks(layered=self.newton.layered)
 
     # -- solve ------------------------------------------------------------------------------------------
     def solve(self) -> int:

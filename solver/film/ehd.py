@@ -37,8 +37,11 @@ same UFL expressions as the rigid film, evaluated at the cell midpoints: the ope
 engine loads (DESIGN 7); Newton on the coupled system does not. With a few modes (m << n) the reduced
 systems are solved through the Schur complement of the film block (``SchurLU``: an LU of the film
 block's fixed pattern; the m x m Schur system by GMRES preconditioned with the last complement formed,
-which is formed anew, m back-substitutions, only when that converges slowly); node by node (Winkler)
-the matrix keeps one sparsity pattern and ``FixedPatternLU`` refactorises it numerically only (MUMPS).
+which is formed anew, m back-substitutions, only when that converges slowly). Node by node (the FE
+eye's layer basis, W = q_L + Phi q, and a WinklerLayer) SchurLU first eliminates q_L where its row is
+q_L = g F(P) (every node off the cells in asperity contact): the film block becomes J_uu + L diag(d),
+L = dR_u/dW in the film's own pattern (``border_map``), d = g a dp/du, and the kept q_L and the modes
+are the borders (``LayeredBlocks``); the whole matrix (MUMPS) remains the semismooth far start's.
 Either way the film's Jacobian with respect to the kinematics reuses the converged factorisation.
 
 Serial, P1 (the tensors' assumptions). The deformation's rate in the squeeze term is in the UFL
@@ -133,6 +136,10 @@ class CoupledNewton:
         op = operator
         n, m = len(op.indptr) - 1, Phi.shape[1]
         self.n, self.m = n, m
+        #: the layer basis (and a WinklerLayer, its m = 0 case): the first n unknowns are the deformation
+        #: node by node (Phi = [I, Phi_modes]), eliminated from the Newton systems (``layered_blocks``)
+        self.layered = m >= n and _is_identity(Phi[:, :n])
+        self.modes = m - n if self.layered else m  # the dense columns of Phi
         cells = op.cells
         c3 = np.repeat(cells, 3)
         self.areas = op.nodal_areas  # lumped nodal areas a_i (/ R^2)
@@ -144,7 +151,7 @@ class CoupledNewton:
         self.slope_Phi = (slope @ Phi).tocsr()  # dW'_K/dq
         # with a few modes the shapes are dense: their products with the cells' sparse matrices as dense
         # arrays (a sparse-sparse product with a dense result costs ~10 x more)
-        self.dense = m < n
+        self.dense = m < n and not self.layered
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
         # the shapes, for deformation() and modal_forces(): a dense array with a few modes (a CSR matrix of
         # its n m entries multiplies ~3 x slower)
@@ -154,7 +161,13 @@ class CoupledNewton:
         self._Phi_sparse = Phi
         if self.dense:
             self.average_Phi_dense = self.average_Phi.toarray()
+        if self.dense or self.layered:
             self.border = border_map(op, n)
+        if self.layered:  # the modes' shapes dense (n x modes), and the midpoint value of a P1 field
+            self.Phi_modes = Phi[:, n:].toarray()
+            self.average = average
+            self._pattern_rows = np.repeat(np.arange(n), np.diff(op.indptr))  # the row of each entry of M
+            self._to_nodes_csc = self.to_nodes.tocsc()  # (its columns of the cells in contact)
         self._set_gains(gains)
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix(
@@ -197,6 +210,8 @@ class CoupledNewton:
         if self.dense:
             self.J_qP_dense = self.J_qP.toarray()
             self.gPhiT_cells = (self.gPhiT @ self.to_nodes).toarray()  # (m, cells): dR_q/dF_c per cell
+        if self.layered:  # the modes' g Phi^T (modes x n)
+            self.gPhiT_modes = self.gains[self.n :, None] * self.Phi_modes.T
 
     def set_scales(self, gains, pressure_map=None, q_limit: float | None = None) -> None:
         """A new p_ref (a new viscosity): the bushing's gains (solver.film.bushings.Bushing.shapes) and
@@ -209,10 +224,14 @@ class CoupledNewton:
 
     def deformation(self, q: np.ndarray) -> np.ndarray:
         """W = Phi q at the film's dofs (/ c)."""
+        if self.layered:
+            return q[: self.n] + self.Phi_modes @ q[self.n :]
         return self.Phi @ q
 
     def modal_forces(self, F: np.ndarray) -> np.ndarray:
         """Phi^T F: nodal forces on the modes."""
+        if self.layered:
+            return np.concatenate([F, self.Phi_modes.T @ F])
         return self.Phi.T @ F
 
     # -- the coupled residual and Jacobian ---------------------------------------------------------
@@ -270,6 +289,36 @@ class CoupledNewton:
             J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
             J_qu = self.J_qP if slope is None else self.J_qP @ scipy.sparse.diags(slope)
         return J_qu, J_qq
+
+    def layered_blocks(self, J_uu, M, rows: np.ndarray, slope: np.ndarray) -> "LayeredBlocks":
+        """The Jacobian's blocks at the cached state in the layer basis, for SchurLU's elimination of the
+        node-by-node deformation (``LayeredBlocks``): ``J_uu`` = dR_u/du (CSR, the operator's layout),
+        ``M`` = dR_u/dW (CSR, the same pattern: solver.film.ehd.border_map) before ``rows`` (1 on the
+        block's own rows, 0 on its prescribed ones) masks it, ``slope`` the true pressure's dp/du at each
+        node."""
+        n, k = self.n, self.k
+        L = M.copy()
+        L.data = L.data * rows[self._pattern_rows]  # dR_u/dW = dR_u/dq_L
+        d = self.gains[:n] * self.areas * slope  # dR_L/du = -diag(d)
+        touching = np.flatnonzero(k[:, 5])  # the asperity pressure's slope: on the cells in contact only
+        kept = np.unique(self.op.dofs[touching])  # their vertices: the local unknowns kept
+        modes, size = self.modes, len(kept)
+        # the contact's nodal forces per W, to_nodes diag(dP_c/dW) average: its entries are in kept x kept
+        contact = (self._to_nodes_csc[:, touching][kept].toarray() * k[touching, 5][None, :]) @ (
+            self.average[touching][:, kept].toarray()
+        )
+        g_kept = self.gains[kept, None]
+        # the borders' rows' blocks: (L_kept, modes) against (L_kept, modes)
+        D = np.identity(size + modes)
+        D[:size, :size] -= g_kept * contact
+        if modes and size:
+            Phi_kept, gPhiT_kept = self.Phi_modes[kept], self.gPhiT_modes[:, kept]
+            D[:size, size:] = -g_kept * (contact @ Phi_kept)
+            D[size:, :size] = -gPhiT_kept @ contact
+            D[size:, size:] -= gPhiT_kept @ (contact @ Phi_kept)
+        B_modes = (rows[:, None] * (L @ self.Phi_modes)) if modes else np.zeros((n, 0))  # dR_u/dq_modes
+        C_modes = -self.gPhiT_modes * (self.areas * slope)[None, :]  # dR_modes/du
+        return LayeredBlocks(J_uu, L, d, kept, B_modes, C_modes, D)
 
     def scatter(self, J: scipy.sparse.coo_matrix) -> np.ndarray:
         """J's values in the fixed pattern (duplicates summed; zeros where J has no entry). The blocks'
@@ -332,6 +381,34 @@ class CoupledNewton:
         self.block.close()
         for obj in (self.A, self.x, self.r):
             obj.destroy()
+
+
+class LayeredBlocks:
+    """The coupled Jacobian's blocks in the layer basis (W = q_L + Phi_modes q_modes, q_L the deformation
+    node by node): ``A`` = dR_u/du and ``L`` = dR_u/dq_L (n x n, the film's pattern), dR_L/du = -diag(``d``)
+    (the layer's compliance times the pressure's slope), the nodes ``kept`` (the vertices of the cells in
+    asperity contact: there dR_L/dq couples neighbours and the modes; elsewhere it is the identity row),
+    ``B_modes`` = dR_u/dq_modes, ``C_modes`` = dR_modes/du and ``D`` the borders' own block on
+    (q_L at ``kept``, q_modes). solver.film.coupled_lu.SchurLU eliminates the other q_L."""
+
+    __slots__ = ("A", "L", "d", "kept", "B_modes", "C_modes", "D")
+
+    def __init__(self, A, L, d, kept, B_modes, C_modes, D):
+        self.A, self.L, self.d, self.kept = A, L, d, kept
+        self.B_modes, self.C_modes, self.D = B_modes, C_modes, D
+
+
+def _is_identity(block: scipy.sparse.csr_matrix) -> bool:
+    """Whether a square CSR block is the identity."""
+    block = block.tocsr()
+    block.sum_duplicates()
+    n = block.shape[0]
+    return (
+        block.nnz == n
+        and np.array_equal(block.indptr, np.arange(n + 1))
+        and np.array_equal(block.indices, np.arange(n))
+        and np.all(block.data == 1.0)
+    )
 
 
 def border_map(op: MidpointOperator, n: int) -> tuple:

@@ -56,7 +56,7 @@ def film_differences():
 
 #: the film kinds of the parametrised fixture: (bearing keywords, FilmSpec keywords)
 def _kinds(eye=None):
-    from solver.film.bushings import ModalCompliance, WinklerLayer
+    from solver.film.bushings import FEEye, ModalCompliance, WinklerLayer
     from solver.film.surface import Surface
 
     rough = Surface(sigma_journal=0.3e-6, sigma_bushing=0.4e-6)
@@ -71,10 +71,28 @@ def _kinds(eye=None):
         "elastic-jfo": (flooded, {"cavitation": "jfo", "bushing": winkler}),
         # the coarse eye (coarse_eye), a few modes: the coupled Newton's dense borders and SchurLU
         "fe-eye": ({"inlet": "none"}, {"bushing": eye and ModalCompliance(eye, 12), **rough_keys}),
+        # the coarse eye in the layer basis (the layer node by node + 12 modes): SchurLU eliminating the layer
+        "fe-layer": (
+            {"inlet": "none"},
+            {"bushing": eye and FEEye(eye.geometry, 12).reduce(eye), **rough_keys},
+        ),
+        "fe-layer-jfo": (
+            flooded,
+            {"cavitation": "jfo", "bushing": eye and FEEye(eye.geometry, 12).reduce(eye)},
+        ),
     }
 
 
-FILM_KINDS = ["rigid-smooth", "rigid-rough", "winkler", "jfo", "elastic-jfo", "fe-eye"]
+FILM_KINDS = [
+    "rigid-smooth",
+    "rigid-rough",
+    "winkler",
+    "jfo",
+    "elastic-jfo",
+    "fe-eye",
+    "fe-layer",
+    "fe-layer-jfo",
+]
 
 
 @pytest.fixture(params=FILM_KINDS)
@@ -87,7 +105,7 @@ def film(request):
     from solver.film.spec import FilmSpec
     from solver.film.types import Bearing
 
-    eye = request.getfixturevalue("coarse_eye") if request.param == "fe-eye" else None
+    eye = request.getfixturevalue("coarse_eye") if request.param.startswith("fe-") else None
     bearing_keys, spec_keys = _kinds(eye)[request.param]
     bearing = Bearing(radius=0.01, width=0.02, clearance=10e-6, viscosity=0.01, **bearing_keys)
     spec = FilmSpec(bearing=bearing, omega_ref=200.0, mesh_size=0.12, **spec_keys)

@@ -1,5 +1,6 @@
 """What every film kind must do, on one fixture parametrised over the kinds the factory builds
-(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO, the FE eye)."""
+(tests/film/conftest.py: rigid smooth, rigid rough, Winkler, JFO, elastic JFO, the FE eye in
+modes and in the layer basis with each cavitation law)."""
 
 from __future__ import annotations
 
