@@ -172,7 +172,7 @@ def describe_timing(timing: dict[str, float]) -> str:
 def describe_changes(change: dict[str, float]) -> str:
     """One line: each part's change over a cycle (solver.study.periodic.CycleMap.state_changes)."""
     units = {
-        "position": "clearance",
+        "position": "clearance (pin in its bushing)",
         "velocity": "clearance x crank speed",
         "film_fraction": "(largest at a node)",
         "deformation": "clearance (rms)",
