@@ -62,9 +62,12 @@ TEMPERATURE_SCALE = 1.0
 ACCELERATIONS = ("none", "mpe")
 #: pairs (start, end) the extrapolation combines, the latest last
 PAIRS = 3
-#: the largest |alpha_j| accepted: a larger one extrapolates far along directions the pairs hardly
-#: resolve (near-parallel residuals); the step is then the plain one
-MAX_COEFFICIENT = 20.0
+#: the largest |alpha_j| accepted: a mode contracting by lambda a cycle takes 1 / (1 - lambda), 5 at
+#: lambda = 0.8; a larger one extrapolates far along directions the pairs hardly resolve, e.g. near
+#: the periodic state, where the residuals are the integration's noise (the pin's cycle-end position
+#: moves by ~3e-4 clearance a cycle at the positions' atol of 1e-4 clearance); the step is then the
+#: plain one
+MAX_COEFFICIENT = 5.0
 
 
 def mixing_coefficients(residuals: list[np.ndarray]) -> np.ndarray | None:

@@ -22,14 +22,14 @@ from tests.study.test_engine_jfo import _jfo_case
 
 @pytest.mark.serial
 def test_the_mixing_reaches_the_fixed_point_of_a_linear_map():
-    """A linear map with two slow modes (0.9 and 0.5, the rest 0) in 6 dimensions, from a start whose
+    """A linear map with two slow modes (0.7 and 0.4, the rest 0) in 6 dimensions, from a start whose
     error lies in the slow modes (the fast ones settle in the first cycle): the plain iteration is still
-    0.9^k from the fixed point; the mixing of the last PAIRS = 3 pairs is at it to round-off once three
+    0.7^k from the fixed point; the mixing of the last PAIRS = 3 pairs is at it to round-off once three
     pairs are known (two residual differences span the two modes). 1e-10 relative: the least-squares
     solve's round-off on residuals of order 1."""
     rng = np.random.default_rng(7)
     basis, _ = np.linalg.qr(rng.normal(size=(6, 6)))
-    A = basis @ np.diag([0.9, 0.5, 0.0, 0.0, 0.0, 0.0]) @ basis.T
+    A = basis @ np.diag([0.7, 0.4, 0.0, 0.0, 0.0, 0.0]) @ basis.T
     b = rng.normal(size=6)
     fixed = np.linalg.solve(np.eye(6) - A, b)
     start = fixed + basis[:, :2] @ np.array([1.0, -2.0])
@@ -48,10 +48,12 @@ def test_the_mixing_reaches_the_fixed_point_of_a_linear_map():
 
 
 def test_the_mixing_refuses_a_far_extrapolation():
-    """Two nearly parallel residuals of nearly equal size (a contraction of 0.999): the combination would
-    take alpha ~ 1000, beyond MAX_COEFFICIENT: None (the plain start)."""
+    """Two parallel residuals, the second 0.9 and 0.7 of the first (a mode contracting by 0.9 or 0.7):
+    the combination is Aitken's, alpha = (-lambda, 1) / (1 - lambda), i.e. (-9, 10) beyond
+    MAX_COEFFICIENT = 5 (None: the plain start) and (-2.33, 3.33) within it (to round-off)."""
     f = np.array([1.0, 0.0])
-    assert mixing_coefficients([f, 0.999 * f]) is None
+    assert mixing_coefficients([f, 0.9 * f]) is None
+    np.testing.assert_allclose(mixing_coefficients([f, 0.7 * f]), np.array([-0.7, 1.0]) / 0.3, rtol=1e-12)
 
 
 COARSE = (
