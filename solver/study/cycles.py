@@ -370,7 +370,9 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 if settled_now and consistent:
                     periodic = True
                     break
-                start = cycle_map.next_start(end)
+                # extrapolated while the orbit is not periodic; then plain (the thermal iteration alone
+                # closes the balance: an extrapolation there only moves the orbit by its noise)
+                start = cycle_map.next_start(end, extrapolate=not settled_now)
                 if start is not end and run.model is not None and start.film:
                     for time_s, film_state in start.film:  # the film's history moved alike
                         run.model.commit_history(film_state, time_s)

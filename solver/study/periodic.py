@@ -56,8 +56,11 @@ log = logging.getLogger(__name__)
 
 #: the parts of the state whose change over each cycle is logged and kept (results.nc ``history.*``)
 STATE_PARTS = ("position", "velocity", "film_fraction", "deformation", "temperature")
-#: K, the effective film temperature's scale in the extrapolation's norm
-TEMPERATURE_SCALE = 1.0
+#: K, the effective film temperature's scale in the extrapolation's norm: its closure tolerance, 1e-6,
+#: is ~1e-5 K of the fixed point's change, and the pin's cycle-end position moves by ~3e-4 clearance a
+#: cycle at the integration's tolerance; at 1 K the position's noise outweighed the temperature's last
+#: changes (the closure stayed at 1.5e-5 where the plain secant reached 1e-7)
+TEMPERATURE_SCALE = 0.01
 #: the ``solver.periodic_acceleration`` values
 ACCELERATIONS = ("none", "mpe")
 #: pairs (start, end) the extrapolation combines, the latest last
@@ -192,12 +195,12 @@ class CycleMap:
             return None
         return mixing_coefficients([end - start for start, end, _ in self.pairs])
 
-    def next_start(self, end: EndState) -> EndState:
+    def next_start(self, end: EndState, extrapolate: bool = True) -> EndState:
         """The start of the next cycle after the cycle that ended at ``end`` (the last recorded):
-        ``end`` itself (plain, or fewer than two pairs), or with acceleration the extrapolation of the
-        kept pairs, made admissible."""
+        ``end`` itself (plain, not ``extrapolate``, or fewer than two pairs), or with acceleration the
+        extrapolation of the kept pairs, made admissible."""
         self.extrapolated = False
-        if self.acceleration == "none":
+        if self.acceleration == "none" or not extrapolate:
             return end
         alpha = self.coefficients()
         if alpha is None:
