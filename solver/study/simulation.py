@@ -82,6 +82,9 @@ class Run:
         # film history's rate was taken from (None: no history, or quasi-static), for the fields
         self.committed: list[list[tuple[float, np.ndarray]] | None] = []
         self.oil = FilmOil(case.oil)  # the film's oil in the cycles run now
+        # the film's committed history at the last cycle's start (after its first output), the start
+        # state's film part for the cycle map (solver.study.periodic)
+        self.start_film: list[tuple[float, np.ndarray]] = []
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""
