@@ -892,6 +892,18 @@ FIELDS: tuple[FieldSpec, ...] = (
         1.0,
         doc="periodic when the cycle minimum of h_min changes by less than this fraction of the clearance",
     ),
+    FieldSpec(
+        "solver",
+        "periodic_acceleration",
+        "periodic_acceleration",
+        str,
+        "none",
+        choices=("none", "mpe"),
+        doc="the cycles' way to the periodic state: none (each cycle from the last one's end) or mpe (after "
+        "two cycles the next starts from the minimal polynomial extrapolation of the cycle-end states: "
+        "positions, velocities, film fraction and deformation; then a plain cycle tests periodicity; "
+        "docs/models.md)",
+    ),
     _f(
         "solver",
         "periodic_friction_tolerance",
@@ -1182,6 +1194,7 @@ class Solver:
     max_cycles: int = 4
     periodic_tolerance: float = _field("solver", "periodic_tolerance")  # fraction of the clearance
     periodic_friction_tolerance: float | None = _field("solver", "periodic_friction_tolerance")  # None: off
+    periodic_acceleration: str = "none"  # none | mpe (solver.study.periodic)
     field_angles: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 180.0, 360.0, 380.0, 540.0))  # rad
     field_step: float = _field("solver", "field_step")  # rad, ParaView series step (0: no series)
     slip_regularisation: float = _field("solver", "slip_regularisation")  # m/s

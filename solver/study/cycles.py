@@ -36,6 +36,7 @@ from solver.study import io
 from solver.study.energy import STAGE_COLUMNS, EnergyAudit, input_work
 from solver.study.film_temperature import set_film_temperature
 from solver.study.outputs import StateOutputs
+from solver.study.periodic import STATE_PARTS, CycleMap, EndState
 from solver.study.results import TIMING
 from solver.study.thermal import ThermalError, cycle_mean
 
@@ -117,6 +118,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     run.committed = []
     row, qd = outputs.at(t0, q0, qd0)
     output_accepted(t0)
+    run.start_film = model.committed_history() if history else []  # the film's state the cycle starts from
     rows = [row]
     work = np.zeros(len(STAGE_COLUMNS))  # STAGE_COLUMNS since the cycle's start
     energies = [work.copy()]
@@ -190,6 +192,22 @@ def describe_timing(timing: dict[str, float]) -> str:
             if t.get("transport_fallbacks")
             else ""
         )
+    )
+
+
+def describe_changes(change: dict[str, float]) -> str:
+    """One line: each part's change over a cycle (solver.study.periodic.CycleMap.state_changes)."""
+    units = {
+        "position": "clearance (pin in its bushing)",
+        "velocity": "clearance x crank speed",
+        "film_fraction": "(largest at a node)",
+        "deformation": "clearance (rms)",
+        "temperature": "K (the heat balance's fixed point less the cycle's)",
+    }
+    return ", ".join(
+        f"{name.replace('_', ' ')} {value:.3g} {units[name]}"
+        for name, value in change.items()
+        if math.isfinite(value)
     )
 
 
@@ -271,6 +289,11 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
     else:
         first, history, friction = 0, [], []
         t0, q0, qd0 = run.em.initial_state(0.0)
+    # the cycle map's parts (solver.study.periodic): each cycle's change of each, and the extrapolation
+    cycle_map = CycleMap(run, case.solver.periodic_acceleration)
+    start = EndState(t0, q0, qd0, [])
+    changes: dict[str, list[float]] = {name: [math.nan] * first for name in STATE_PARTS}
+    extrapolated = [0.0] * first  # 1: the cycle started from an extrapolated state
     bar, report = _progress_bar(case, first) if progress and comm.rank == 0 else (None, None)
 
     cycle = None
@@ -279,6 +302,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
     friction_tolerance = case.solver.periodic_friction_tolerance
 
     def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
+        extrapolated_start = bool(extrapolated and extrapolated[-1])
         h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
         f_change = relative_change(friction)
         text = (
@@ -287,7 +311,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         )
         return h_change < case.solver.periodic_tolerance and (
             friction_tolerance is None or f_change < friction_tolerance
-        ), text
+        ), text + (" (the cycle started from the extrapolated state)" if extrapolated_start else "")
 
     def at_film_temperature() -> None:  # the temperature the thermal iteration asks for
         if oil.thermal is not None and oil.thermal.temperature != oil.temperature:
@@ -322,12 +346,34 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         with _logs_above_the_bar() if bar is not None else nullcontext():
             for index in range(first, case.solver.max_cycles):
                 at_film_temperature()
-                cycle, (t0, q0, qd0) = run.integrate_cycle(index, t0, q0, qd0, progress=report)
+                cycle, (t0, q0, qd0) = run.integrate_cycle(index, start.t, start.q, start.qd, progress=report)
+                consistent = thermal_step(index, cycle)
+                start = dataclasses.replace(
+                    start,
+                    film=run.start_film if run.model is not None else [],
+                    temperature=oil.temperature if oil.thermal is not None else math.nan,
+                )
+                end = EndState(
+                    t0,
+                    q0,
+                    qd0,
+                    run.model.committed_history() if run.model is not None else [],
+                    oil.thermal.model.fixed_point(oil.thermal.history[-1])
+                    if oil.thermal is not None
+                    else math.nan,
+                )
+                change = cycle_map.state_changes(start, end)
+                cycle_map.record(start, end)
+                for name in STATE_PARTS:
+                    changes[name].append(change[name])
+                extrapolated.append(1.0 if cycle_map.extrapolated else 0.0)
                 history.append(cycle.h_min_min)
                 friction.append(cycle.friction_power_mean)
                 settled_now, text = settled()
                 log.info("cycle %d: %s", index + 1, text)
-                consistent = thermal_step(index, cycle)
+                log.info(
+                    "cycle %d: change of the state over the cycle: %s", index + 1, describe_changes(change)
+                )
                 begin = time.perf_counter()
                 timings.append(cycle.timing)
                 if comm.rank == 0:
@@ -354,6 +400,15 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 if settled_now and consistent:
                     periodic = True
                     break
+                # extrapolated while the orbit is not periodic; then plain (the thermal iteration alone
+                # closes the balance: an extrapolation there only moves the orbit by its noise)
+                start = cycle_map.next_start(end, extrapolate=not settled_now)
+                if start is not end and run.model is not None and start.film:
+                    for time_s, film_state in start.film:  # the film's history moved alike
+                        run.model.commit_history(film_state, time_s)
+                    run.model.start_from(start.film[-1][1])
+                if start is not end and oil.thermal is not None:  # the temperature extrapolated with them
+                    oil.thermal.propose(start.temperature)
     except KeyboardInterrupt:
         index, angle = run.position
         raise RunInterrupted(case.name, index + 1, angle, path if saved else None, saved) from None
@@ -365,10 +420,18 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
         friction.append(cycle.friction_power_mean)
+        for name in STATE_PARTS:
+            changes[name].append(math.nan)
+        extrapolated.append(0.0)
         thermal_step(len(history) - 1, cycle)
         timings.append(cycle.timing)
     run.timings = timings
-    run.cycle_history = {"h_min_min": list(history), "friction_power_mean": list(friction)}
+    run.cycle_history = {
+        "h_min_min": list(history),
+        "friction_power_mean": list(friction),
+        **{f"state_change_{name}": values for name, values in changes.items()},
+        "extrapolated_start": extrapolated,
+    }
     if not settled()[0]:
         log.warning(
             "not periodic after %d cycles (tolerance %g of the clearance%s)",

@@ -292,7 +292,13 @@ def write_results(
             },
             "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum "
             "of h_min [m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's "
-            "quantities)",
+            "quantities); the change of each part of the state over the cycle, NaN where the state has no "
+            "such part or the cycle was resumed: state_change_position [clearance] and "
+            "state_change_velocity [clearance x crank speed] (the pin's eccentricity in the bushing and "
+            "its rate), state_change_film_fraction (largest at a node), state_change_deformation "
+            "[clearance, rms over the film's nodes], state_change_temperature [K] (the heat balance's "
+            "fixed point less the cycle's temperature); extrapolated_start: 1 if the cycle started from "
+            "an extrapolated state (solver.study.periodic)",
             "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
             + "; one value per computed cycle, the first cycle first",
             "Conventions": "CF-1.8 (partially)",

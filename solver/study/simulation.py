@@ -85,6 +85,9 @@ class Run:
         self.started = time.perf_counter()  # this invocation's start (run_case sets its own)
         self.earlier_wall_time = 0.0  # s, of the earlier invocations a resumed run goes on from
         self.position = (0, 0.0)  # (cycle index, crank angle) the cycles reached (solver.study.cycles)
+        # the film's committed history at the last cycle's start (after its first output), the start
+        # state's film part for the cycle map (solver.study.periodic)
+        self.start_film: list[tuple[float, np.ndarray]] = []
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""

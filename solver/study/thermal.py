@@ -208,6 +208,14 @@ class EffectiveTemperature:
             return 0.5 * (low + high)
         return limit  # every cycle so far below the root, every step beyond the limit: try the limit
 
+    def propose(self, temperature: float) -> None:
+        """Run the next cycle at ``temperature`` [C] instead of this iteration's choice (the cycle map's
+        extrapolation, solver.study.periodic), kept within (T_supply, temperature_limit]; nothing once
+        converged (the temperature is kept). The balances recorded stay the secant's data."""
+        if self.history and not self.converged and math.isfinite(temperature):
+            low, high = self.model.supply_temperature, self.model.temperature_limit
+            self._next = min(max(temperature, low + 1e-6 * (high - low)), high)
+
     def state(self) -> list[dict[str, float]]:
         """The history as plain data (a checkpoint's JSON); ``from_state`` rebuilds the iteration."""
         return [dataclasses.asdict(b) for b in self.history]

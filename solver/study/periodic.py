@@ -1,0 +1,269 @@
+"""The cycle map of a coupled run: the state a cycle carries to the next, how much each part of it changed,
+and the extrapolation of the cycle-end states to the periodic state (``solver.periodic_acceleration``).
+
+A run is the fixed-point iteration ``x_(k+1) = P(x_k)`` of the cycle map P: one 720 deg cycle from the state
+x_k at a cycle end (crank angle 0 mod 720 deg). That state (:class:`EndState`) is
+
+- the mechanism's coordinates q and velocities qd (the crank's angle taken modulo the cycle, which the
+  driver prescribes: only the pin's two degrees of freedom in its bushing are free);
+- the film's committed history (solver.film.history; none for a rigid Reynolds film): the last solve's
+  unknowns, with the JFO film's u (film fraction ``theta = 1 + min(u, 0)``, the oil held in the
+  film) and an elastic bushing's modal deformation.
+
+Each cycle logs the change of each part between its start and its end (:func:`state_changes`), the
+numbers that show which part settles slowly.
+
+**Extrapolation** (``periodic_acceleration = "mpe"``): a mode of P that contracts by lambda per cycle
+takes ``log(tol) / log(lambda)`` plain cycles to settle. From cycles run one after the other, each giving a
+pair (start x_j, end P(x_j)) with residual ``f_j = P(x_j) - x_j``, the next start is
+
+    x = sum_j alpha_j P(x_j),   alpha = argmin || sum_j alpha_j f_j ||  with  sum_j alpha_j = 1,
+
+over the last pairs: on a consecutive sequence ``x_(j+1) = P(x_j)`` this is the minimal polynomial
+extrapolation (Cabay & Jackson 1976; Smith, Ford & Sidi 1987) that Skelboe (1980, "Computation of the
+periodic steady-state response of nonlinear networks by extrapolation methods", IEEE Trans. Circuits
+Syst. 27) uses for periodic steady states, and on any pairs the Anderson mixing (Walker & Ni 2011): the
+affine combination that would make the linearised cycle's change smallest. It removes the modes that
+the pairs span in one step. The norm weighs each part by its scale: the pin's eccentricity in its
+bushing by the clearance and its rate by clearance x crank speed (the mechanism's free coordinates),
+the film fraction and the deformation (/ clearance) by their root mean square over the film's nodes,
+the effective temperature in K. The combination is taken of the coordinates and velocities, the film
+states and the temperature, and made admissible: film fraction in [0, 1], positions and velocities
+projected on the constraints, the pin inside its clearance (else the step is halved toward the plain
+start); a combination with any |alpha_j| above MAX_COEFFICIENT is refused (the plain start). The film's
+committed history is moved by the same correction as its last state, so that the first step's rate
+(BDF2 through the committed states) stays the cycle's own.
+
+The periodic test (solver.study.cycles) is the plain one, on consecutive cycles of the iteration:
+with the extrapolation it starts from the third cycle, each cycle from the extrapolation of the last
+three (the first cycle's pair, from the pin centred in a full film, takes a small coefficient).
+
+Numpy only (the films with history are serial: solver.film.spec).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+
+from solver.dynamics.engine import CRANK
+from solver.dynamics.multibody import project_positions, project_velocities
+
+log = logging.getLogger(__name__)
+
+#: the parts of the state whose change over each cycle is logged and kept (results.nc ``history.*``)
+STATE_PARTS = ("position", "velocity", "film_fraction", "deformation", "temperature")
+#: K, the effective film temperature's scale in the extrapolation's norm: its closure tolerance, 1e-6,
+#: is ~1e-5 K of the fixed point's change, and the pin's cycle-end position moves by ~3e-4 clearance a
+#: cycle at the integration's tolerance; at 1 K the position's noise outweighed the temperature's last
+#: changes (the closure stayed at 1.5e-5 where the plain secant reached 1e-7)
+TEMPERATURE_SCALE = 0.01
+#: the ``solver.periodic_acceleration`` values
+ACCELERATIONS = ("none", "mpe")
+#: pairs (start, end) the extrapolation combines, the latest last
+PAIRS = 3
+#: the largest |alpha_j| accepted: a mode contracting by lambda a cycle takes 1 / (1 - lambda), 5 at
+#: lambda = 0.8; a larger one extrapolates far along directions the pairs hardly resolve, e.g. near
+#: the periodic state, where the residuals are the integration's noise (the pin's cycle-end position
+#: moves by ~3e-4 clearance a cycle at the positions' atol of 1e-4 clearance); the step is then the
+#: plain one
+MAX_COEFFICIENT = 5.0
+
+
+def mixing_coefficients(residuals: list[np.ndarray]) -> np.ndarray | None:
+    """alpha minimising ``|| sum_j alpha_j f_j ||`` with ``sum_j alpha_j = 1`` (module docstring) for the
+    residuals f_j, oldest first; None for a combination beyond MAX_COEFFICIENT (or not finite).
+
+    With ``alpha = e_last - D gamma`` over the differences D of consecutive residuals, gamma is D's
+    least-squares solution for the last residual (Walker & Ni 2011, eq. 2.2)."""
+    F = np.array(residuals, dtype=float).T  # residuals as columns
+    D = F[:, 1:] - F[:, :-1]
+    gamma, *_ = np.linalg.lstsq(D, F[:, -1], rcond=1e-10)
+    alpha = np.zeros(F.shape[1])
+    alpha[-1] = 1.0
+    alpha[1:] -= gamma
+    alpha[:-1] += gamma
+    if not np.all(np.isfinite(alpha)) or np.max(np.abs(alpha)) > MAX_COEFFICIENT:
+        return None
+    return alpha
+
+
+@dataclasses.dataclass
+class EndState:
+    """The state at a cycle end (module docstring): time [s], coordinates, velocities, the film's
+    committed history ((time [s], state), oldest first; [] without history), and with oil.thermal =
+    "effective" the film temperature [C] of the next cycle (a cycle's start: the one it runs at; its
+    end: the balance's fixed point with the cycle's means, solver.study.thermal.ThermalModel.fixed_point;
+    NaN when isothermal)."""
+
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    film: list[tuple[float, np.ndarray]]
+    temperature: float = math.nan
+
+
+class CycleMap:
+    """The parts of a run's end states, their changes and (optionally) their extrapolation.
+
+    Args:
+        run: the run (solver.study.simulation.Run): its mechanism, film, clearance and crank speed.
+        acceleration: ``"none"`` (plain cycles) or ``"mpe"`` (module docstring).
+    """
+
+    def __init__(self, run, acceleration: str = "none"):
+        self.run, self.acceleration = run, acceleration
+        model = run.model
+        self.film_nodes = model.space.n if model is not None and model.has_history else 0
+        self.jfo = model is not None and model.spec.cavitation == "jfo"
+        # the last PAIRS cycles: (start vector, end vector, end state)
+        self.pairs: list[tuple[np.ndarray, np.ndarray, EndState]] = []
+        self.extrapolated = False  # the cycle being run started from an extrapolated state
+
+    # -- the parts ------------------------------------------------------------------------------
+    def _period_q(self, state: EndState) -> np.ndarray:
+        """q with the crank angle taken modulo the cycle (4 pi)."""
+        q = np.array(state.q, dtype=float)
+        q[3 * CRANK + 2] = math.remainder(q[3 * CRANK + 2], 4 * math.pi)
+        return q
+
+    def parts(self, state: EndState) -> dict[str, np.ndarray]:
+        """The state's parts, each divided by its scale (module docstring); the mechanism's by the pin's
+        eccentricity in its bushing and its rate (the free coordinates: the others follow from the
+        constraints, and weighed as coordinates the crank's and rod's angles would bring the
+        integrator's angle tolerance, 1e-6 rad, in as 1e-2 clearance)."""
+        c = self.run.case.small_end.clearance
+        pin = self.run.em.small_end.kinematics(state.q, state.qd)
+        parts = {
+            "position": np.asarray(pin.ecc, dtype=float) / c,
+            "velocity": np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega),
+        }
+        if self.film_nodes and state.film:
+            x = state.film[-1][1]
+            n = self.film_nodes
+            if self.jfo:
+                parts["film_fraction"] = (1.0 + np.minimum(x[:n], 0.0)) / math.sqrt(n)
+            if x.size > n:
+                parts["deformation"] = x[n:] / math.sqrt(n)
+        if math.isfinite(state.temperature):
+            parts["temperature"] = np.array([state.temperature / TEMPERATURE_SCALE])
+        return parts
+
+    def vector(self, state: EndState) -> np.ndarray:
+        """The scaled state as one vector (the extrapolation's)."""
+        return np.concatenate(list(self.parts(state).values()))
+
+    def state_changes(self, start: EndState, end: EndState) -> dict[str, float]:
+        """The change of each part over a cycle: ``position`` [clearance] and ``velocity`` [clearance x
+        crank speed], of the pin's eccentricity in its bushing and of its rate (the free coordinates;
+        the others follow from the constraints, and the crank's angle from its driver);
+        ``film_fraction``, the largest change of theta at a film node; ``deformation``, the root mean
+        square over the film's nodes of the change of the modal deformation / clearance;
+        ``temperature`` [K], the fixed point of the cycle's heat balance less the temperature it ran at
+        (NaN for a part the state does not have)."""
+        a, b = self.parts(start), self.parts(end)
+        n = max(self.film_nodes, 1)
+        change = dict.fromkeys(STATE_PARTS, math.nan)
+        for name in ("position", "velocity"):
+            change[name] = float(np.linalg.norm(b[name] - a[name]))
+        if "film_fraction" in a and "film_fraction" in b:
+            change["film_fraction"] = float(
+                np.max(np.abs(b["film_fraction"] - a["film_fraction"])) * math.sqrt(n)
+            )
+        if "deformation" in a and "deformation" in b:
+            change["deformation"] = float(np.linalg.norm(b["deformation"] - a["deformation"]))
+        if "temperature" in a and "temperature" in b:
+            change["temperature"] = float(b["temperature"][0] - a["temperature"][0]) * TEMPERATURE_SCALE
+        return change
+
+    # -- extrapolation --------------------------------------------------------------------------
+    def record(self, start: EndState, end: EndState) -> None:
+        """A finished cycle from ``start`` to ``end`` (plain and extrapolated starts alike: each is a
+        pair of the map); the last PAIRS with states of one size are kept."""
+        a, b = self.vector(start), self.vector(end)
+        if a.size != b.size:  # (a start without the film's state)
+            return
+        self.pairs = [p for p in self.pairs if p[0].size == a.size]
+        self.pairs = [*self.pairs, (a, b, end)][-PAIRS:]
+
+    def coefficients(self) -> np.ndarray | None:
+        """alpha of the kept pairs (:func:`mixing_coefficients`), or None: fewer than two pairs."""
+        if len(self.pairs) < 2:
+            return None
+        return mixing_coefficients([end - start for start, end, _ in self.pairs])
+
+    def next_start(self, end: EndState, extrapolate: bool = True) -> EndState:
+        """The start of the next cycle after the cycle that ended at ``end`` (the last recorded):
+        ``end`` itself (plain, not ``extrapolate``, or fewer than two pairs), or with acceleration the
+        extrapolation of the kept pairs, made admissible."""
+        self.extrapolated = False
+        if self.acceleration == "none" or not extrapolate:
+            return end
+        alpha = self.coefficients()
+        if alpha is None:
+            return end
+        start = self._combine(alpha, [e for _, _, e in self.pairs], end)
+        if start is None:
+            return end
+        self.extrapolated = True
+        moved = self.vector(start) - self.vector(end)
+        last = np.linalg.norm(self.pairs[-1][1] - self.pairs[-1][0])
+        log.info(
+            "next cycle from the extrapolation of the last %d cycle ends (coefficients %s): %s",
+            len(alpha),
+            ", ".join(f"{a:.3g}" for a in alpha),
+            ", ".join(
+                f"{name.replace('_', ' ')} moved {value:.3g}"
+                for name, value in self.state_changes(end, start).items()
+                if math.isfinite(value)
+            )
+            + f" (|moved| / |last change| = {np.linalg.norm(moved) / max(last, 1e-300):.3g})",
+        )
+        return start
+
+    def _combine(self, alpha: np.ndarray, ends: list[EndState], end: EndState) -> EndState | None:
+        """sum alpha_j end_j at ``end``'s time, the correction applied alike to the film history's
+        states; admissible (module docstring) or None."""
+        q_period = sum(a * self._period_q(e) for a, e in zip(alpha, ends))
+        qd = sum(a * np.asarray(e.qd, dtype=float) for a, e in zip(alpha, ends))
+        temperature = sum(a * e.temperature for a, e in zip(alpha, ends))
+        film_shift = None
+        if self.film_nodes and end.film and all(e.film for e in ends):
+            film_shift = sum(a * e.film[-1][1] for a, e in zip(alpha, ends)) - end.film[-1][1]
+        plain_q = self._period_q(end)
+        mechanism = self.run.em.mechanism
+        element = self.run.em.small_end
+        limit = self.run.case.small_end.clearance * (
+            self.run.model.max_eccentricity_ratio if self.run.model is not None else 1.0
+        )
+        for _ in range(6):  # the step halved toward the plain start until the pin is inside
+            q = np.array(end.q, dtype=float) + (q_period - plain_q)
+            try:
+                q = project_positions(mechanism, q, end.t)
+            except Exception:  # noqa: BLE001 - a configuration that does not assemble: a shorter step
+                q = None
+            if q is not None:
+                v = project_velocities(mechanism, q, qd, end.t)
+                eccentricity = element.kinematics(q, v).ecc if element is not None else np.zeros(2)
+                if math.hypot(*eccentricity) < 0.98 * limit:
+                    film = end.film
+                    if film_shift is not None:
+                        film = [(time_s, self._admissible(x + film_shift)) for time_s, x in end.film]
+                    return EndState(end.t, q, v, film, temperature)
+            q_period = 0.5 * (q_period + plain_q)
+            qd = 0.5 * (qd + np.asarray(end.qd, dtype=float))
+            temperature = 0.5 * (temperature + end.temperature)
+            if film_shift is not None:
+                film_shift = 0.5 * film_shift
+        return None
+
+    def _admissible(self, x: np.ndarray) -> np.ndarray:
+        """A film state with its film fraction in [0, 1] (JFO: u >= -1)."""
+        x = np.array(x, dtype=float)
+        if self.jfo:
+            n = self.film_nodes
+            x[:n] = np.maximum(x[:n], -1.0)
+        return x
