@@ -108,7 +108,7 @@ def test_fe_eye_equilibrium_under_growing_loads_rough():
 @pytest.mark.slow
 def test_fe_eye_equilibrium_rough_33_kN_gives_up_in_one_line():
     """33 kN on rough surfaces: the coupled film cannot be solved past eps = 4.7060-4.7065 (the
-    search comes within 1.0e-3 of the load: 32966 N of 33000 N carried at eps = 4.7033; every film
+    search comes within 0.11 % of the load: 32966 N of 33000 N carried at eps = 4.7033; every film
     solve a step further cycles for its 230 iterations). The search ends at the second failed solve
     there (solver.film.equilibrium.BARRIER_DISTANCE), not after ~20 of them (8 min): one line, exit 1."""
     proc = run_cli("bearing", *SMALL_END, *ROUGH, "--load", "33000")
