@@ -4,6 +4,7 @@ with the film's exact Jacobian (solver.film.model.Film.jacobian)."""
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -13,8 +14,16 @@ from solver.film.types import MAX_ECCENTRICITY, STALL_TOLERANCE, Equilibrium, Ki
 #: the bounds of the largest change of the eccentricity [c] of a Newton step with an elastic bushing
 ELASTIC_STEP = (0.02, 0.5)
 #: failed film solves in one step after which the film is taken as unsolvable a step further (each
-#: costs 200 iterations of the semismooth method; on the way to an equilibrium up to 4 came in a row)
+#: costs 230 iterations, 20-35 s on the reference small end; on the way to an equilibrium up to 4 came
+#: in a row)
 FAILED_SOLVES = 6
+#: a failed film solve within this distance [c] of an earlier failed one ends the search: the film
+#: cannot be solved there (the reference small end, rough, under 33 kN: the search stepped to eps =
+#: 4.70646 from eps = 4.7002, 4.7033, 4.7049, ... and every film solve there failed, 20-27 s each)
+BARRIER_DISTANCE = 1e-2
+#: wall time [s] of the failed film solves of one search after which it ends (the film is taken as
+#: unsolvable a step further); on the way to an equilibrium 2 failed solves took up to 70 s
+FAILED_SECONDS = 150.0
 
 
 def equilibrium(
@@ -54,6 +63,10 @@ def equilibrium(
         tol: relative tolerance on the force residual, |F + W| <= tol |W|.
         guess: starting eccentricity [m]; default eps = 0.5, 50 deg ahead of the load line.
 
+    A film that cannot be solved a step further ends the search (FilmNotConverged): FAILED_SOLVES
+    failed solves in one step, a failed solve near an earlier failed one (BARRIER_DISTANCE: the
+    search came back to where the film could not be solved), or FAILED_SECONDS of failed solves.
+
     Raises:
         InputError: the load cannot be carried below MAX_ECCENTRICITY, or Newton's method stalls.
         FilmNotConverged: the film cannot be solved at the first iterate, or a step further from one.
@@ -89,6 +102,8 @@ def equilibrium(
 
     kin, res, r = residual(x)
     radius = None
+    failed_at: list[np.ndarray] = []  # the eccentricities [c] of the failed film solves
+    failed_seconds = 0.0
     for iteration in range(max_iterations):
         if np.linalg.norm(r) <= tol * W_norm:
             return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
@@ -109,16 +124,22 @@ def equilibrium(
         while True:
             trial = x + lam * step
             trial[0] = min(max(trial[0], 1e-4), s_max)
+            started = time.perf_counter()
             try:
                 kin_t, res_t, r_t = residual(trial)
-                failure = None
+                failure, barrier = None, False
             except FilmNotConverged as err:  # too far a step for the film (an elastic one): shorter
                 r_t, failure = np.full(2, np.inf), err
                 failures += 1
+                failed_seconds += time.perf_counter() - started
+                here = ecc(trial)[1] / c
+                barrier = any(np.linalg.norm(here - e) <= BARRIER_DISTANCE for e in failed_at)
+                barrier = barrier or failed_seconds >= FAILED_SECONDS
+                failed_at.append(here)
             if np.linalg.norm(r_t) < np.linalg.norm(r):
                 break
             lam *= 0.5
-            if lam < 1e-3 * first or failures == FAILED_SOLVES:
+            if lam < 1e-3 * first or failures == FAILED_SOLVES or barrier:
                 if x[0] >= s_max * (1 - 1e-9) and np.dot(res.force, W) < 0 and res.load < W_norm:
                     raise InputError(
                         f"load = {W_norm:g} N cannot be carried (eccentricity ratio reaches "
@@ -129,12 +150,7 @@ def equilibrium(
                 if np.linalg.norm(r) <= STALL_TOLERANCE * W_norm:
                     return Equilibrium(kin, res, iteration, float(np.linalg.norm(r)))
                 if failure is not None:  # the film, not the search: it cannot be solved a step further
-                    raise FilmNotConverged(
-                        f"load = {W_norm:g} N: the film cannot be solved past eccentricity ratio {eps:.6f} "
-                        f"(h_min {res.h_min:.3g} m, it carries {res.load:.6g} N)",
-                        failure.reason,
-                        failure.iterations,
-                    )
+                    raise _unsolvable(W_norm, eps, res, failure)
                 raise InputError(
                     f"load = {W_norm:g} N: the equilibrium search stalled at eccentricity ratio "
                     f"{eps:.6f} (residual {np.linalg.norm(r):.3g} N)"
@@ -143,3 +159,14 @@ def equilibrium(
             radius = min(2 * radius, ELASTIC_STEP[1]) if lam == first < 1.0 else min(radius, lam * moved)
         x, kin, res, r = trial, kin_t, res_t, r_t
     raise InputError(f"load = {W_norm:g} N: no equilibrium found in {max_iterations} Newton iterations")
+
+
+def _unsolvable(load: float, eps: float, res, failure: FilmNotConverged) -> FilmNotConverged:
+    """The search's end where the film cannot be solved a step further than eccentricity ratio ``eps``
+    (its last solution ``res``)."""
+    return FilmNotConverged(
+        f"load = {load:g} N: the film cannot be solved past eccentricity ratio {eps:.6f} "
+        f"(h_min {res.h_min:.3g} m, it carries {res.load:.6g} N)",
+        failure.reason,
+        failure.iterations,
+    )
