@@ -473,18 +473,18 @@ FIELDS: tuple[FieldSpec, ...] = (
         "compliance_basis",
         "compliance_basis",
         str,
-        "layer",
-        choices=("layer", "eigen"),
-        doc="fe: the compliance's basis (docs/models.md): layer (the bushing's local compression node by "
-        "node plus modes of the rest, the eye's bending) or eigen (modes of the whole compliance, the basis "
-        "before the layer one; with compliance_modes = 72 it gives the earlier answers)",
+        "eigen",
+        choices=("eigen", "layer"),
+        doc="fe: the compliance's basis (docs/models.md): eigen (modes of the whole compliance) or layer "
+        "(the bushing's local compression node by node plus modes of the rest: a thin bushing on a stiff "
+        "housing; on the reference eye it misplaces the film's minimum, docs/verification.md)",
     ),
     FieldSpec(
         "small_end",
         "compliance_modes",
         "compliance_modes",
         int,
-        0,
+        72,
         minimum=0,
         maximum=360,
         doc="fe: modes kept; 0: the fewest whose truncation error is within compliance_tolerance (the "

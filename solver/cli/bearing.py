@@ -438,15 +438,15 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--compliance-basis",
         choices=("layer", "eigen"),
-        default="layer",
-        help="fe: layer (the bushing's local compression node by node plus modes of the rest; default) or "
-        "eigen (modes of the whole compliance, the earlier basis)",
+        default="eigen",
+        help="fe: eigen (modes of the whole compliance; default) or layer (the bushing's local compression "
+        "node by node plus modes of the rest: a thin bushing on a stiff housing)",
     )
     g.add_argument(
         "--compliance-modes",
         type=int,
-        default=0,
-        help="fe: modes of the compliance kept (default 0: the fewest within --compliance-tolerance)",
+        default=72,
+        help="fe: modes of the compliance kept (default 72; 0: the fewest within --compliance-tolerance)",
     )
     g.add_argument(
         "--compliance-tolerance",

@@ -160,9 +160,9 @@ class FEEye:
     0 (default): the fewest whose truncation error under the reference loads is at most ``tolerance``."""
 
     geometry: Any  # solver.film.compliance.EyeGeometry
-    modes: int = 0
+    modes: int = 72
     tolerance: float = DEFAULT_TOLERANCE
-    basis: str = "layer"
+    basis: str = "eigen"
     kind = "fe"
 
     def __post_init__(self) -> None:
@@ -224,11 +224,11 @@ def bushing_model(
     E_bushing: float,
     nu_bushing: float,
     shank_half_angle_deg: float,
-    modes: int = 0,
+    modes: int = 72,
     comm=None,
     shank_angle_deg: float = 180.0,
     tolerance: float = DEFAULT_TOLERANCE,
-    basis: str = "layer",
+    basis: str = "eigen",
 ):
     """The bushing's description for a FilmSpec: None (rigid), a WinklerLayer, or the finite-element eye
     (an FEEye, built by the factory) in ``basis`` with ``modes`` modes (0: from ``tolerance``), clamped

@@ -222,13 +222,14 @@ def test_bad_basis_keys_give_one_line_errors(tmp_path, text, message):
 
 
 def test_case_keys(tmp_path):
-    """A case that states the old basis gets it (compliance_modes = 72, compliance_basis = "eigen"); one
-    that states nothing gets the layer basis at the default tolerance."""
-    (tmp_path / "case.toml").write_text(
-        '[small_end]\nelastic = "fe"\ncompliance_modes = 72\ncompliance_basis = "eigen"\n'
-    )
-    se = load_case(tmp_path).small_end
-    assert (se.compliance_modes, se.compliance_basis, se.compliance_tolerance) == (72, "eigen", 0.01)
+    """A case that states nothing gets the eigen basis with 72 modes (the shipped cases' answers); one
+    that states the layer basis and compliance_modes = 0 gets its modes from the tolerance."""
     (tmp_path / "case.toml").write_text('[small_end]\nelastic = "fe"\n')
     se = load_case(tmp_path).small_end
-    assert (se.compliance_modes, se.compliance_basis, se.compliance_tolerance) == (0, "layer", 0.01)
+    assert (se.compliance_modes, se.compliance_basis, se.compliance_tolerance) == (72, "eigen", 0.01)
+    (tmp_path / "case.toml").write_text(
+        '[small_end]\nelastic = "fe"\ncompliance_modes = 0\ncompliance_basis = "layer"\n'
+        "compliance_tolerance = 0.02\n"
+    )
+    se = load_case(tmp_path).small_end
+    assert (se.compliance_modes, se.compliance_basis, se.compliance_tolerance) == (0, "layer", 0.02)
