@@ -28,16 +28,21 @@ def _raise_interrupt(signum, frame):
 
 @contextlib.contextmanager
 def sigterm_interrupts():
-    """SIGTERM raises KeyboardInterrupt meanwhile (the main thread only; elsewhere nothing changes)."""
+    """SIGTERM and SIGINT raise KeyboardInterrupt meanwhile (the main thread only; elsewhere nothing
+    changes). SIGINT is set too: a process started in the background by a shell script inherits it
+    ignored, and then ``kill -INT`` would not reach Python's handler (the libraries may reset it to the
+    default action, which ends the process without the line)."""
     try:
         previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     except ValueError:  # not the main thread
         yield
         return
+    previous_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGINT, previous_int)
 
 
 def interrupted(world, line: str) -> int:

@@ -31,6 +31,7 @@ from __future__ import annotations
 import atexit
 import dataclasses
 import math
+import signal
 
 from mpi4py import MPI
 
@@ -167,13 +168,20 @@ _gmsh_ready = False
 
 
 def initialize_gmsh() -> None:
-    """Initialise gmsh once per process (gmsh 4.8 has no ``isInitialized``)."""
+    """Initialise gmsh once per process (gmsh 4.8 has no ``isInitialized``), and give Ctrl-C back to
+    Python: gmsh's import sets SIGINT to the default action (restored only by its finalize), which ends
+    the process at once, without the line an interrupted run prints (solver.cli.interrupts)."""
     global _gmsh_ready
     if not _gmsh_ready:
         gmsh.initialize(readConfigFiles=False)
         atexit.register(gmsh.finalize)
         _gmsh_ready = True
     gmsh.option.setNumber("General.Terminal", 0)
+    if gmsh.oldsig is not None and signal.getsignal(signal.SIGINT) is signal.SIG_DFL:
+        try:
+            signal.signal(signal.SIGINT, gmsh.oldsig)
+        except ValueError:  # not the main thread: signals are the main thread's
+            pass
 
 
 def film_mesh(spec: FilmMeshSpec, comm: MPI.Comm):

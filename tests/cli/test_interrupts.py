@@ -191,3 +191,18 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
         assert "resuming after cycle 1" in (c / "results" / "run.log").read_text()
     document = json.loads((tmp_path / "batch_status.json").read_text())
     assert [r["status"] for r in document["cases"]] == ["complete", "complete"]
+
+
+def test_ctrl_c_still_reaches_python_after_the_film_mesh():
+    """gmsh's import sets SIGINT to the default action, which ends the process at once without the
+    line (a mixed-fem run interrupted after its film mesh was built printed nothing, exit by signal).
+    After the film mesh's gmsh set-up the handler must be Python's again: checked in a fresh
+    interpreter (the test process may have imported gmsh before), exactly, no tolerance."""
+    code = (
+        "import signal\n"
+        "from solver.film.mesh import initialize_gmsh\n"
+        "initialize_gmsh()\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
+    assert out.stdout.strip() == "True", out.stdout + out.stderr
