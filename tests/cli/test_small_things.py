@@ -11,20 +11,9 @@ import math
 import numpy as np
 import pytest
 
+from tests.cli.test_bearing_command import GOOD
 from tests.conftest import assert_one_line_error, run_cli
 
-GOOD = [
-    "--radius",
-    "0.01",
-    "--width",
-    "0.02",
-    "--clearance",
-    "10e-6",
-    "--viscosity",
-    "0.01",
-    "--speed",
-    "3000",
-]
 QUICK = ["--eccentricity", "0.5", "--mesh-size", "0.2"]
 
 
