@@ -201,7 +201,7 @@ def test_eigen_basis_reproduces_the_old_bushing(coarse_eye):
     [
         (
             'compliance_basis = "modal"',
-            r"^small_end.compliance_basis = 'modal' is out of range \(allowed: 'layer', ",
+            r"^small_end.compliance_basis = 'modal' is out of range \(allowed: 'eigen', 'layer'",
         ),
         (
             "compliance_tolerance = 0",
