@@ -81,7 +81,7 @@ def main() -> None:
 
     loads = reference_loads(compliance)
     F = np.column_stack(list(loads.values()))
-    local = FEEye(REFERENCE).layer.coefficient
+    local = FEEye(REFERENCE, basis="layer").layer.coefficient
     eigen, layer = compliance.truncation_errors(F), compliance.truncation_errors(F, local)
     print(f"\ntruncation error (max norm, %) against the modes m (eigen: the old default {DEFAULT_MODES}):")
     print(

@@ -155,9 +155,10 @@ class FEEye:
     """The finite-element eye and bushing as data: its geometry (solver.film.compliance.EyeGeometry) and
     its basis; the factory builds (or reads from the disk cache) its compliance.
 
-    ``basis``: ``layer`` (the bushing layer's local part node by node plus modes of the remainder) or
-    ``eigen`` (modes of the whole compliance, the basis before the layer one). ``modes``: the modes kept;
-    0 (default): the fewest whose truncation error under the reference loads is at most ``tolerance``."""
+    ``basis``: ``eigen`` (modes of the whole compliance; default) or ``layer`` (the bushing layer's local
+    part node by node plus modes of the remainder: a thin bushing on a stiff housing; docs/models.md).
+    ``modes``: the modes kept (default 72); 0: the fewest whose truncation error under the reference loads
+    is at most ``tolerance``."""
 
     geometry: Any  # solver.film.compliance.EyeGeometry
     modes: int = 72

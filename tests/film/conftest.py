@@ -74,11 +74,11 @@ def _kinds(eye=None):
         # the coarse eye in the layer basis (the layer node by node + 12 modes): SchurLU eliminating the layer
         "fe-layer": (
             {"inlet": "none"},
-            {"bushing": eye and FEEye(eye.geometry, 12).reduce(eye), **rough_keys},
+            {"bushing": eye and FEEye(eye.geometry, 12, basis="layer").reduce(eye), **rough_keys},
         ),
         "fe-layer-jfo": (
             flooded,
-            {"cavitation": "jfo", "bushing": eye and FEEye(eye.geometry, 12).reduce(eye)},
+            {"cavitation": "jfo", "bushing": eye and FEEye(eye.geometry, 12, basis="layer").reduce(eye)},
         ),
     }
 

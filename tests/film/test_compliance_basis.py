@@ -121,7 +121,7 @@ def test_reference_eye_against_the_full_compliance(reference_compliance, caplog)
     log."""
     c = reference_compliance
     with caplog.at_level(logging.INFO, logger="solver.film.bushings"):
-        bushing = FEEye(REFERENCE).reduce(c)
+        bushing = FEEye(REFERENCE, modes=0, basis="layer").reduce(c)
     layer, modal = bushing.parts
     assert isinstance(layer, WinklerLayer) and isinstance(modal, ModalCompliance)
     assert f"layer basis: the bushing layer node by node (k = {layer.coefficient:.4g} m/Pa) + " in caplog.text
@@ -140,7 +140,7 @@ def test_layer_basis_with_every_mode_is_the_local_law_plus_the_remainder(coarse_
     nodal forces of the solved pressure): checks the superposition of the two bushings in the coupled
     Newton and their scalings, to the VI tolerance (1e-8 of max w)."""
     geometry = coarse_eye.geometry
-    layer = FEEye(geometry).layer
+    layer = FEEye(geometry, basis="layer").layer
     k = layer.coefficient
     bushing = Superposed([layer, ModalCompliance(coarse_eye, coarse_eye.size, k)])
     p, w, F, theta, z = _film_solution(bushing, (0.0, -0.9 * C))

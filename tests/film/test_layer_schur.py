@@ -52,7 +52,7 @@ JFO_STATES = [(0.0, Kinematics((5e-6, 3e-6), (0.0, 0.0), OMEGA, 0.0))] + [
 def _bushing(kind: str, eye):
     if kind == "winkler":
         return WinklerLayer(**BRONZE)
-    bushing = FEEye(eye.geometry, modes=MODES).reduce(eye)
+    bushing = FEEye(eye.geometry, modes=MODES, basis="layer").reduce(eye)
     assert isinstance(bushing, Superposed)
     return bushing
 
