@@ -178,17 +178,21 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
     assert process.returncode != 0, stderr
     lines = interrupt_lines(stderr)
     assert len(lines) == 1 and "MPI_ABORT" not in stderr, stderr
-    assert "0 of 2 case(s) finished, 2 interrupted" in lines[0] and re.search(
-        r"at cycle [12], crank", lines[0]
-    )
+    # on a loaded machine one case may finish between the last checkpoint and the signal: the line
+    # counts it, and its status is complete
+    finished = re.search(r"batch: (\d) of 2 case\(s\) finished, (\d) interrupted", lines[0])
+    assert finished and int(finished[1]) + int(finished[2]) == 2 and int(finished[1]) <= 1, lines[0]
+    assert re.search(r"at cycle [12], crank", lines[0])
     document = json.loads((tmp_path / "batch_status.json").read_text())
-    assert [r["status"] for r in document["cases"]] == ["interrupted", "interrupted"]
+    statuses = [r["status"] for r in document["cases"]]
+    assert statuses.count("interrupted") == int(finished[2]) and set(statuses) <= {"interrupted", "complete"}
     assert all((c / "results" / "checkpoint.npz").exists() for c in cases)
 
     rerun = subprocess.run(command, cwd=ROOT, env=mpi_env(), capture_output=True, text=True, timeout=600)
     assert rerun.returncode == 0, rerun.stderr
-    for c in cases:
-        assert "resuming after cycle 1" in (c / "results" / "run.log").read_text()
+    for c, status in zip(cases, statuses):
+        if status == "interrupted":
+            assert "resuming after cycle 1" in (c / "results" / "run.log").read_text()
     document = json.loads((tmp_path / "batch_status.json").read_text())
     assert [r["status"] for r in document["cases"]] == ["complete", "complete"]
 
