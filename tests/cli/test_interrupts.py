@@ -202,8 +202,9 @@ def test_ctrl_c_still_reaches_python_after_the_film_mesh():
     line (a mixed-fem run interrupted after its film mesh was built printed nothing, exit by signal).
     After the film mesh's gmsh set-up the handler must be Python's again: checked in a fresh
     interpreter (the test process may have imported gmsh before), exactly, no tolerance."""
-    code = (
+    code = (  # (Python's handler first: a shell's background job inherits SIGINT ignored, as run/batch set)
         "import signal\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "from solver.film.mesh import initialize_gmsh\n"
         "initialize_gmsh()\n"
         "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
