@@ -17,6 +17,10 @@ from tests.conftest import assert_one_line_error, run_cli
 QUICK = ["--eccentricity", "0.5", "--mesh-size", "0.2"]
 
 
+# the new user's small end typed in mm (R 12, B 22, c 0.012)
+IN_MM = ["--radius", "12", "--width", "22", "--clearance", "0.012", "--viscosity", "0.01"]
+
+
 def _with(args: list[str], flag: str, value: str) -> list[str]:
     out = list(args)
     out[out.index(flag) + 1] = value
@@ -30,19 +34,7 @@ def _with(args: list[str], flag: str, value: str) -> list[str]:
         # the bearing in mm: R = 12 m > 1 m
         (
             "bearing",
-            [
-                "--radius",
-                "12",
-                "--width",
-                "22",
-                "--clearance",
-                "0.012",
-                "--viscosity",
-                "0.01",
-                "--speed",
-                "3000",
-            ]
-            + QUICK,
+            IN_MM + ["--speed", "3000"] + QUICK,
             ["--radius = 12 is out of range (allowed: [0.0001, 1] m; if you meant 12 mm: --radius 0.012)"],
         ),
         # the clearance alone in mm: c/R = 1.2 > 1e-2; R = 0.01 m -> c in [1e-6, 1e-4] m
@@ -76,20 +68,7 @@ def _with(args: list[str], flag: str, value: str) -> list[str]:
         # the stribeck command had no geometry check at all
         (
             "stribeck",
-            [
-                "--radius",
-                "12",
-                "--width",
-                "22",
-                "--clearance",
-                "0.012",
-                "--viscosity",
-                "0.01",
-                "--load",
-                "100",
-                "--points",
-                "2",
-            ],
+            IN_MM + ["--load", "100", "--points", "2"],
             ["--radius = 12 is out of range", "--radius 0.012"],
         ),
     ],
