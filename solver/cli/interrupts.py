@@ -18,8 +18,10 @@ import contextlib
 import os
 import signal
 import sys
+import time
 
 EXIT_INTERRUPTED = 130
+LINGER_SECONDS = 5.0  # ranks other than 0, under MPI, before they end (see interrupted)
 
 
 def _raise_interrupt(signum, frame):
@@ -53,5 +55,10 @@ def interrupted(world, line: str) -> int:
     if under_mpi:
         sys.stdout.flush()
         sys.stderr.flush()
+        if world.rank != 0:
+            # mpirun kills every rank at once when one of them ends: rank 0 could be killed while it
+            # writes batch_status.json and its line. The others leave that to rank 0's end (or to
+            # mpirun's own kill after its timeout).
+            time.sleep(LINGER_SECONDS)
         os._exit(EXIT_INTERRUPTED)
     return EXIT_INTERRUPTED

@@ -626,8 +626,12 @@ def _interrupted_records(plan: BatchPlan, own: dict[int, dict], started: str) ->
             record.update(status=status["status"] if now else "skipped", ran_this_invocation=now)
             records.append(record)
             continue
-        if not status and results_complete(case_dir / "results" / "results.nc"):
-            record.update(status="skipped", error="", ran_this_invocation=False)
+        results = case_dir / "results" / "results.nc"
+        if not status and results_complete(results):
+            # finished in this invocation if written after its start (its rank may not have written
+            # case_status.json yet when the interruption came)
+            now = results.stat().st_mtime >= datetime.datetime.fromisoformat(started).timestamp()
+            record.update(status="complete" if now else "skipped", error="", ran_this_invocation=now)
         else:
             cycles = io.checkpoint_cycles(case_dir / "results" / "checkpoint.npz")
             record.update(
