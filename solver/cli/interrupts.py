@@ -9,7 +9,9 @@ on disk; ``batch`` writes ``batch_status.json``) and end with :func:`interrupted
 The exit status is 130 (128 + SIGINT, the shell's convention). Under MPI the process ends at once with
 ``os._exit(130)`` after flushing its streams: ``python3 -m mpi4py`` turns a non-zero exit status into
 ``MPI_Abort``, whose many lines would bury the one that says where the run stopped, and ``mpirun`` is
-tearing the job down anyway (its own exit status is then 1, whatever the ranks return).
+tearing the job down anyway (its own exit status is then 1, whatever the ranks return). The other ranks
+wait a few seconds first: ``mpirun`` kills every rank as soon as one ends, and rank 0 must write the
+batch's status and the line.
 """
 
 from __future__ import annotations
