@@ -74,6 +74,7 @@ PRESSURE_SHEAR = {
     9.0: (0.73, 0.91),
 }
 H_MIN = 0.5  # lowest Hs of the gamma = 1 fits; below it the factors are held
+SHEAR_FLOW_HOLD_WIDTH = 0.2  # Phi_s below H_MIN: its slope falls to zero over this width (C1), then held
 PHI_F_EPSILON = 1 / 300  # Patir & Cheng 1979: cut-off of the gap distribution in Phi_f (Hs <= 3)
 CONTACT_FACTOR_H = 3.0  # Wu & Zheng: phi_c = 1 for Hs >= 3
 
@@ -129,13 +130,26 @@ def pressure_flow(Hs: Any, gamma: float = 1.0, mod: Any = np) -> Any:
     return _interpolated(_pressure_flow_tabulated, gamma, Hs, mod)
 
 
+def _shear_flow_edge(gamma: float) -> tuple[float, float]:
+    """Phi_s and d Phi_s / d Hs of the low fit at Hs = H_MIN."""
+    A1, a1, a2, a3, _ = SHEAR_FLOW[gamma]
+    value = A1 * H_MIN**a1 * math.exp(-a2 * H_MIN + a3 * H_MIN**2)
+    return value, value * (a1 / H_MIN - a2 + 2.0 * a3 * H_MIN)
+
+
 def _shear_flow_tabulated(gamma: float, Hs: Any, mod: Any) -> Any:
     A1, a1, a2, a3, A2 = SHEAR_FLOW[gamma]
     H = _clamp(Hs, H_MIN, mod)
     H_low = np.minimum(H, 5.0) if mod is np else mod.min_value(H, 5.0)  # each fit only inside its range
     low = A1 * H_low**a1 * mod.exp(-a2 * H_low + a3 * H_low**2)
     high = A2 * mod.exp(-0.25 * H)
-    return _where(_lt(H, 5.0, mod), low, high, mod) if mod is not np else np.where(H <= 5.0, low, high)
+    fit = _where(_lt(H, 5.0, mod), low, high, mod) if mod is not np else np.where(H <= 5.0, low, high)
+    # below H_MIN the slope falls linearly to zero over SHEAR_FLOW_HOLD_WIDTH (C1: a step in the slope
+    # made the coupled Newton cycle between two iterates where a loaded film crosses H_MIN)
+    value, slope = _shear_flow_edge(gamma)
+    x = _clamp(Hs, H_MIN - SHEAR_FLOW_HOLD_WIDTH, mod) - H_MIN
+    ramp = value + slope * x * (1.0 + x / (2.0 * SHEAR_FLOW_HOLD_WIDTH))
+    return _where(_lt(Hs, H_MIN, mod), ramp, fit, mod)
 
 
 def _shear_flow_slope_tabulated(gamma: float, Hs: np.ndarray, mod: Any = np) -> np.ndarray:
@@ -151,7 +165,10 @@ def _shear_flow_slope_tabulated(gamma: float, Hs: np.ndarray, mod: Any = np) -> 
     Hl = H[low]
     slope[low] = A1 * Hl**a1 * np.exp(-a2 * Hl + a3 * Hl**2) * (a1 / Hl - a2 + 2.0 * a3 * Hl)
     slope[~low] = -0.25 * A2 * np.exp(-0.25 * H[~low])
-    return np.where(inside, slope, 0.0)
+    edge_slope = _shear_flow_edge(gamma)[1]
+    x = np.maximum(Hs, H_MIN - SHEAR_FLOW_HOLD_WIDTH) - H_MIN
+    ramp = np.where(x > -SHEAR_FLOW_HOLD_WIDTH, edge_slope * (1.0 + x / SHEAR_FLOW_HOLD_WIDTH), 0.0)
+    return np.where(inside, slope, ramp)
 
 
 def shear_flow_function(Hs: Any, gamma: float = 1.0, mod: Any = np) -> Any:

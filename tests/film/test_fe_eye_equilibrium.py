@@ -98,31 +98,15 @@ def test_fe_eye_equilibrium_under_growing_loads_smooth():
 @pytest.mark.serial
 @pytest.mark.slow
 def test_fe_eye_equilibrium_under_growing_loads_rough():
-    """5 and 20 kN on rough surfaces (mixed lubrication: the asperities share the load)."""
-    reports = _equilibria(ROUGH, LOADS[:2])
-    _check(reports, LOADS[:2])
+    """5, 20 and 33 kN on rough surfaces (mixed lubrication: the asperities share the load). 33 kN took
+    the film to h/sigma = 0.06, where the shear-flow factor was held below H = 0.5 with a step in its
+    slope: the coupled Newton cycled between two iterates there and the search gave up at eps = 4.48
+    (30.5 kN carried). With the C1 hold (solver.film.flow_factors) it is balanced like the others."""
+    reports = _equilibria(ROUGH, LOADS)
+    _check(reports, LOADS)
     assert all(0 < r["asperity_load_N"] < r["load_N"] for r in reports)
-
-
-@pytest.mark.serial
-@pytest.mark.slow
-def test_fe_eye_equilibrium_rough_33_kN_gives_up_in_one_line():
-    """33 kN on rough surfaces: the coupled film cannot be solved beyond a point (the eigen basis, 72
-    modes: eps = 4.483, 30.5 kN of the 33 kN carried; every film solve a step further cycles for its 230
-    iterations: the shear-flow term, docs/models.md). The search ends at the second failed solve there
-    (solver.film.equilibrium.BARRIER_DISTANCE), not after ~20 of them (8 min): one line, exit 1, naming
-    where it stopped and the load carried there (more than 90 % of the load, less than all of it: the
-    search had come that near; the exact value depends on which halved step the film last followed)."""
-    proc = run_cli("bearing", *SMALL_END, *ROUGH, "--load", "33000")
-    assert proc.returncode == 1, proc.stderr
-    assert "Traceback" not in proc.stderr and "Warning" not in proc.stderr, proc.stderr
-    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
-    assert len(errors) == 1, proc.stderr
-    assert "the film cannot be solved past eccentricity ratio " in errors[0], errors[0]
-    eps = float(errors[0].split("past eccentricity ratio ")[1].split()[0])
-    assert 3.5 < eps < 6.0, errors[0]  # beyond the 20 kN equilibrium (3.50), below the compliance bound
-    carried = float(errors[0].split("it carries ")[1].split(" N")[0])
-    assert 0.9 * 33000 < carried < 33000
+    # at 33 kN the film is thinner than the composite roughness (0.316 um): mixed lubrication
+    assert reports[-1]["h_min_m"] < 0.316e-6
 
 
 class _BarrierFilm:

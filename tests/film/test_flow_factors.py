@@ -87,11 +87,11 @@ def test_phi_f_equals_its_definition(h):
 
 
 def test_factors_below_range_are_held_and_smooth_limit():
-    """Below H = 0.5 every factor equals its value at 0.5 (documented hold); at H = 1e4 they are
-    the smooth values to 1e-8."""
+    """Below H = 0.5 every factor but phi_s equals its value at 0.5 (documented hold); phi_s is held
+    below 0.3 (test below); at H = 1e4 they are the smooth values to 1e-8."""
     pc = ff.PatirCheng(sigma_bushing=0.3e-6, sigma_journal=0.1e-6)
     low, edge, big = np.array([0.1, 0.3]), np.array([0.5, 0.5]), np.array([1e4])
-    for law in (pc.pressure_flow_x, pc.pressure_flow_y, pc.shear_flow):
+    for law in (pc.pressure_flow_x, pc.pressure_flow_y):
         assert np.array_equal(law(low), law(edge))
     for a, b in zip(pc.shear_stress_factors(low), pc.shear_stress_factors(edge)):
         assert np.array_equal(a, b)
@@ -103,6 +103,39 @@ def test_factors_below_range_are_held_and_smooth_limit():
         *pc.shear_stress_factors(big),
     ]
     assert np.allclose([s[0] for s in smooth], [1, 1, 0, 1, 1, 0, 1], atol=1e-8)
+
+
+def _shear_flow_slope(H, gamma):
+    return ff._interpolated(ff._shear_flow_slope_tabulated, gamma, np.asarray(H, float), np)
+
+
+@pytest.mark.parametrize("gamma", [1 / 9, 1.0, 2.0, 9.0])
+def test_shear_flow_factor_is_c1_below_its_fit_and_its_slope_is_its_derivative(gamma):
+    """Phi_s below the fits' range (H < H_MIN = 0.5): its slope falls linearly to zero over
+    SHEAR_FLOW_HOLD_WIDTH, then it is held, so value and slope are continuous (a step in the slope made
+    the coupled Newton cycle where a loaded film crosses H_MIN). Checked: the fit is unchanged at and
+    above H_MIN (exactly); the slope is continuous at both ends of the ramp (1e-6 relative, 1e-7
+    absolute: the ramp's slope changes by ~3e-9 over the 1e-9 jump); the ramp loses slope x width / 2
+    (exact for a linear slope: 1e-12); and the slope function equals the central difference of the law
+    away from the ramp's ends (1e-6: the difference's truncation error, step^2 times the third
+    derivative, ~1e-10 at step 1e-5)."""
+    H0, w = ff.H_MIN, ff.SHEAR_FLOW_HOLD_WIDTH
+    law = lambda H: ff.shear_flow_function(np.asarray(H, float), gamma)  # noqa: E731
+    slope = lambda H: _shear_flow_slope(H, gamma)  # noqa: E731
+    if gamma == 1.0:  # the Patir-Cheng fit itself at and above H_MIN: A1 H^a1 exp(-a2 H + a3 H^2)
+        A1, a1, a2, a3, _ = ff.SHEAR_FLOW[1.0]
+        H = np.array([0.5, 0.7, 2.0, 4.9])
+        assert np.array_equal(law(H), A1 * H**a1 * np.exp(-a2 * H + a3 * H**2))
+    d = 1e-9
+    for edge in (H0, H0 - w):
+        assert slope([edge - d])[0] == pytest.approx(slope([edge + d])[0], rel=1e-6, abs=1e-7)
+        assert law([edge - d])[0] == pytest.approx(law([edge + d])[0], rel=1e-8)
+    assert slope([0.0, 0.2, H0 - w - 1e-3]).tolist() == [0.0, 0.0, 0.0]
+    assert law([0.0])[0] == pytest.approx(law([H0])[0] - slope([H0])[0] * w / 2, rel=1e-12)
+    H = np.concatenate([np.linspace(0.0512, 0.9512, 37), [1.5, 3.0, 4.99, 5.01, 7.0]])
+    step = 1e-5
+    central = (law(H + step) - law(H - step)) / (2 * step)
+    assert np.allclose(slope(H), central, rtol=1e-6, atol=1e-9)
 
 
 @pytest.mark.serial
