@@ -486,9 +486,30 @@ FIELDS: tuple[FieldSpec, ...] = (
         int,
         72,
         minimum=0,
-        maximum=360,
-        doc="fe: modes kept; 0: the fewest whose truncation error is within compliance_tolerance (the "
-        "modes and the error are in run.log)",
+        maximum=5000,
+        doc="fe: modes kept, at most the grid's nodes (compliance_grid_theta x compliance_grid_z); 0: the "
+        "fewest whose truncation error is within compliance_tolerance (the modes and the error: run.log)",
+    ),
+    FieldSpec(
+        "small_end",
+        "compliance_grid_theta",
+        "compliance_grid_theta",
+        int,
+        72,
+        minimum=12,
+        maximum=720,
+        doc="fe: nodes of the compliance's grid around the bore (the hats the FE eye is loaded with; "
+        "docs/verification.md: the grid's convergence)",
+    ),
+    FieldSpec(
+        "small_end",
+        "compliance_grid_z",
+        "compliance_grid_z",
+        int,
+        5,
+        minimum=2,
+        maximum=65,
+        doc="fe: nodes of the compliance's grid over the half width, both ends included",
     ),
     _f(
         "small_end",
@@ -1083,9 +1104,18 @@ class SmallEnd:
     compliance_basis: str = _field("small_end", "compliance_basis")
     compliance_modes: int = _field("small_end", "compliance_modes")  # 0: from compliance_tolerance
     compliance_tolerance: float = _field("small_end", "compliance_tolerance")
+    compliance_grid_theta: int = _field("small_end", "compliance_grid_theta")
+    compliance_grid_z: int = _field("small_end", "compliance_grid_z")
 
     def __post_init__(self) -> None:
         _check_section(self, "small_end")
+        nodes = self.compliance_grid_theta * self.compliance_grid_z
+        if self.compliance_modes > nodes:
+            raise out_of_range(
+                "small_end.compliance_modes",
+                self.compliance_modes,
+                f"[0, {nodes}]: at most the grid's nodes, compliance_grid_theta x compliance_grid_z",
+            )
         if self.elastic == "fe" and not self.eye_outer_radius > self.pin_radius + self.bushing_thickness:
             raise out_of_range(
                 "small_end.eye_outer_radius_mm",

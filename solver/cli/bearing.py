@@ -449,6 +449,14 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
         help="fe: modes of the compliance kept (default 72; 0: the fewest within --compliance-tolerance)",
     )
     g.add_argument(
+        "--compliance-grid",
+        nargs=2,
+        type=int,
+        default=(72, 5),
+        metavar=("N_THETA", "N_Z"),
+        help="fe: nodes of the compliance's grid around the bore and over the half width (default 72 5)",
+    )
+    g.add_argument(
         "--compliance-tolerance",
         type=_number("--compliance-tolerance", 0, 1, allowed="(0, 1)"),
         default=0.01,
@@ -489,6 +497,7 @@ def elastic_from_args(args, surface):
         shank_angle_deg=args.shank_angle,
         tolerance=args.compliance_tolerance,
         basis=args.compliance_basis,
+        grid=tuple(args.compliance_grid),
     )
     return elastic, viscosity_law(args.piezoviscosity, args.pressure_viscosity, args.viscosity)
 
@@ -504,10 +513,16 @@ def _check_elastic(args, comm) -> None:
                 f"--eye-outer-radius = {args.eye_outer_radius} is out of range (allowed: > radius + "
                 f"bushing thickness = {args.radius + args.bushing_thickness:g} m)"
             )
-        if not 0 <= args.compliance_modes <= 1000:
+        n_theta, n_z = args.compliance_grid
+        if not (12 <= n_theta <= 720 and 2 <= n_z <= 65):
             raise InputError(
-                f"--compliance-modes = {args.compliance_modes} is out of range (allowed: [0, 1000], 0: from "
-                "--compliance-tolerance)"
+                f"--compliance-grid = {n_theta} {n_z} is out of range (allowed: [12, 720] nodes around, "
+                "[2, 65] over the half width)"
+            )
+        if not 0 <= args.compliance_modes <= n_theta * n_z:
+            raise InputError(
+                f"--compliance-modes = {args.compliance_modes} is out of range (allowed: "
+                f"[0, {n_theta * n_z}], the grid's nodes; 0: from --compliance-tolerance)"
             )
 
 

@@ -520,6 +520,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         modes=se.compliance_modes,
         tolerance=se.compliance_tolerance,
         basis=se.compliance_basis,
+        grid=(se.compliance_grid_theta, se.compliance_grid_z),
     )
     spec = FilmSpec(
         bearing=bearing,

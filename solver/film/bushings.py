@@ -164,11 +164,17 @@ class FEEye:
     modes: int = 72
     tolerance: float = DEFAULT_TOLERANCE
     basis: str = "eigen"
+    grid: tuple[int, int] = (72, 5)  # the compliance's hat grid: nodes around, over the half width
     kind = "fe"
 
     def __post_init__(self) -> None:
-        if not 0 <= self.modes <= 1000:
-            raise out_of_range("compliance modes", self.modes, "[0, 1000] (0: from the tolerance)")
+        n_theta, n_z = self.grid
+        if not (12 <= n_theta <= 720 and 2 <= n_z <= 65):
+            raise out_of_range("compliance grid", f"{n_theta} x {n_z}", "[12, 720] x [2, 65] nodes")
+        if not 0 <= self.modes <= n_theta * n_z:
+            raise out_of_range(
+                "compliance modes", self.modes, f"[0, {n_theta * n_z}] (the grid's nodes; 0: the tolerance's)"
+            )
         if not 0 < self.tolerance < 1:
             raise out_of_range("compliance tolerance", self.tolerance, "(0, 1)")
         if self.basis not in BASES:
@@ -186,7 +192,8 @@ class FEEye:
         """The eye's compliance (from its disk cache when built before) in its basis (``reduce``)."""
         from solver.film.compliance import eye_compliance  # gmsh, dolfinx
 
-        return self.reduce(eye_compliance(self.geometry, comm=comm))
+        n_theta, n_z = self.grid
+        return self.reduce(eye_compliance(self.geometry, n_theta=n_theta, n_z=n_z, comm=comm))
 
     def reduce(self, compliance) -> Superposed | ModalCompliance:
         """The bushing of a compliance (solver.film.compliance.Compliance) in this basis: its modes are
@@ -230,6 +237,7 @@ def bushing_model(
     shank_angle_deg: float = 180.0,
     tolerance: float = DEFAULT_TOLERANCE,
     basis: str = "eigen",
+    grid: tuple[int, int] = (72, 5),
 ):
     """The bushing's description for a FilmSpec: None (rigid), a WinklerLayer, or the finite-element eye
     (an FEEye, built by the factory) in ``basis`` with ``modes`` modes (0: from ``tolerance``), clamped
@@ -255,4 +263,4 @@ def bushing_model(
         shank_angle_deg=shank_angle_deg,
         shank_half_angle_deg=shank_half_angle_deg,
     )
-    return FEEye(geometry, modes, tolerance, basis)
+    return FEEye(geometry, modes, tolerance, basis, tuple(grid))
