@@ -1,0 +1,212 @@
+"""``python3 -m solver bearing ... --motion FILE``: the film of one bearing under a prescribed motion.
+
+The bearing, oil, surfaces, supply, cavitation law, bushing and numerics come from the bearing
+command's options (solver.cli.bearing); the motion from FILE (solver.study.motion: the columns, the
+checks, the driver). The film is the engine's (solver.film.factory.make_film with a film in time,
+``quasi_static=False``: without --inlet a film with history has the inlet 'none'), solved at every row
+with its history committed there. Output: ``DIR/bearing_motion.nc`` (dimension ``time``), a PNG of the
+forces, the peak pressure and the minimum film thickness over time, and a summary (``--json``: one JSON
+object with the maxima, the means and the file's path).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from solver.cli.bearing import (
+    _check_elastic,
+    bearing_from_args,
+    check_plausible,
+    film_spec,
+    resolve_supply,
+    resolve_viscosity,
+    surface_from_args,
+)
+from solver.errors import InputError
+from solver.study import io
+from solver.study.motion import OUTPUTS, check_reach, drive, read_motion, reference_speed
+
+#: log a progress line every this many rows (files longer than this)
+PROGRESS_ROWS = 50
+
+
+def _check(args) -> None:
+    """What goes without --motion (one line naming the flag)."""
+    for flag, given in (
+        ("--attitude", args.attitude is not None),
+        ("--eccentricity-rate", args.eccentricity_rate != 0),
+    ):
+        if given:
+            raise InputError(f"{flag} with --motion (allowed: the motion file's columns instead)")
+
+
+def run_motion(args, comm) -> int:
+    """Drive the film through the motion file; write and report. Returns the exit status."""
+    from solver.film.types import ELASTIC_MAX_ECCENTRICITY
+
+    _check(args)
+    resolve_viscosity(args)
+    resolve_supply(args, quasi_static=False)
+    check_plausible(args)
+    _check_elastic(args, comm)
+    motion = read_motion(args.motion, args.speed, args.bushing_speed)
+    limit = 1.0 if args.elastic == "none" else ELASTIC_MAX_ECCENTRICITY
+    check_reach(motion, args.clearance, limit, args.motion)
+    start = args.start or "full"
+    bearing = bearing_from_args(args)
+    surface = surface_from_args(args)
+    omega_ref = reference_speed(motion, args.clearance)
+    sliding = float(np.max(np.abs(motion.omega_journal - motion.omega_bushing)))
+    clock = time.perf_counter()
+    spec = film_spec(args, bearing, surface, omega_ref, sliding, quasi_static=False)
+    spec.check(ranks=comm.size)
+    from solver.film.factory import make_film  # dolfinx: after the checks
+
+    model = make_film(spec, comm)
+    setup_time = time.perf_counter() - clock
+    try:
+        every = PROGRESS_ROWS if len(motion) > PROGRESS_ROWS else 0
+        result = drive(model, motion, start, progress_every=every)
+    finally:
+        dofs = model.dofs
+        model.close()
+    summary = _summary(args, motion, result, dofs, setup_time, start)
+    if args.output is not None:
+        out = args.output
+        if comm.rank == 0:
+            out.mkdir(parents=True, exist_ok=True)
+            nc = out / "bearing_motion.nc"
+            io.write_netcdf(_dataset(args, motion, result, start), nc)
+            png = out / "bearing_motion.png"
+            _plot(motion, result, png)
+            summary["netcdf"], summary["plot"] = str(nc), str(png)
+            io.write_json(out / "bearing_motion.json", summary)
+        comm.Barrier()
+    if comm.rank == 0:
+        if args.json:
+            print(json.dumps(summary))
+        else:
+            _print_table(summary, sys.stdout)
+    return 0
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def _summary(args, motion, result, dofs: int, setup_time: float, start: str) -> dict:
+    values = result.values
+    force = np.hypot(values["force_x_N"], values["force_y_N"])
+    maxima = {name: _finite(np.max(v)) if np.all(np.isfinite(v)) else None for name, v in values.items()}
+    means = {name: _finite(np.mean(v)) if np.all(np.isfinite(v)) else None for name, v in values.items()}
+    minima = {name: _finite(np.min(v)) if np.all(np.isfinite(v)) else None for name, v in values.items()}
+    return {
+        "rows": len(motion),
+        "time_start_s": float(motion.time[0]),
+        "time_end_s": float(motion.time[-1]),
+        "start": start,
+        "cavitation": args.cavitation,
+        "elastic": args.elastic,
+        "inlet": args.inlet,
+        "rates": "given" if motion.rates_given else "differentiated",
+        "max_load_N": float(np.max(force)),
+        "mean_load_N": float(np.mean(force)),
+        "max_p_max_Pa": maxima["p_max_Pa"],
+        "min_h_min_m": minima["h_min_m"],
+        "maxima": maxima,
+        "minima": minima,
+        "means": means,
+        "dofs": dofs,
+        "iterations": int(np.sum(result.iterations)),
+        "internal_substeps": result.substeps,
+        "setup_time_s": setup_time,
+        "solve_time_s": result.solve_time_s,
+        "netcdf": None,
+        "plot": None,
+    }
+
+
+def _dataset(args, motion, result, start: str):
+    import xarray as xr
+
+    from solver import __version__
+
+    variables = {
+        name: ("time", result.values[name], {"units": units, "long_name": long_name})
+        for name, (units, long_name, _) in OUTPUTS.items()
+    }
+    inputs = {
+        "ecc_x_m": (motion.ecc[:, 0], "m", "eccentricity x (journal centre - bushing centre, bushing frame)"),
+        "ecc_y_m": (motion.ecc[:, 1], "m", "eccentricity y (bushing frame)"),
+        "ecc_rate_x_m_s": (motion.ecc_rate[:, 0], "m s-1", "d ecc_x / dt (bushing frame components)"),
+        "ecc_rate_y_m_s": (motion.ecc_rate[:, 1], "m s-1", "d ecc_y / dt (bushing frame components)"),
+        "journal_speed_rpm": (motion.omega_journal * 60 / (2 * math.pi), "rpm", "journal speed"),
+        "bushing_speed_rpm": (motion.omega_bushing * 60 / (2 * math.pi), "rpm", "bushing speed"),
+    }
+    for name, (data, units, long_name) in inputs.items():
+        variables[name] = ("time", data, {"units": units, "long_name": long_name})
+    variables["iterations"] = (
+        "time",
+        result.iterations,
+        {"units": "1", "long_name": "film solver iterations"},
+    )
+    return xr.Dataset(
+        variables,
+        coords={"time": ("time", motion.time, {"units": "s", "long_name": "time"})},
+        attrs={
+            "title": "the film of one bearing under a prescribed motion (python3 -m solver bearing --motion)",
+            "motion_file": str(args.motion),
+            "start": start,
+            "cavitation": args.cavitation,
+            "elastic": args.elastic,
+            "inlet": args.inlet,
+            "radius_m": args.radius,
+            "width_m": args.width,
+            "clearance_m": args.clearance,
+            "viscosity_Pa_s": args.viscosity,
+            "solver_version": __version__,
+        },
+    )
+
+
+def _plot(motion, result, path) -> None:
+    values, t = result.values, motion.time
+    fig, axes = io.subplots(3, 1, figsize=(7, 7.5), constrained_layout=True, sharex=True)
+    axes[0].plot(t, values["force_x_N"], label="F_x")
+    axes[0].plot(t, values["force_y_N"], label="F_y")
+    axes[0].plot(t, np.hypot(values["force_x_N"], values["force_y_N"]), "k--", label="|F|")
+    axes[0].set_ylabel("force on journal [N]")
+    axes[0].legend(loc="best")
+    axes[1].plot(t, values["p_max_Pa"] / 1e6)
+    axes[1].set_ylabel("peak pressure [MPa]")
+    axes[2].plot(t, values["h_min_m"] * 1e6)
+    axes[2].set_ylabel("min film thickness [um]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    with io.atomic_path(path) as part:
+        fig.savefig(part, format="png", dpi=120)
+
+
+def _print_table(summary: dict, stream) -> None:
+    rows = [
+        ("rows", summary["rows"], ""),
+        ("max load", summary["max_load_N"], "N"),
+        ("mean load", summary["mean_load_N"], "N"),
+        ("max peak pressure", summary["max_p_max_Pa"] / 1e6, "MPa"),
+        ("min film thickness", summary["min_h_min_m"] * 1e6, "um"),
+        ("mean friction torque", summary["means"]["friction_torque_Nm"], "N m"),
+        ("mean side flow", summary["means"]["side_flow_m3_per_s"] * 6e4, "l/min"),
+        ("internal substeps", summary["internal_substeps"], ""),
+        ("solve time", summary["solve_time_s"], "s"),
+    ]
+    for label, value, unit in rows:
+        text = "n/a" if value is None else f"{value:14.6g}"
+        print(f"{label:28s} {text:>14s} {unit}", file=stream)
+    if summary["netcdf"]:
+        print(f"results: {summary['netcdf']}", file=stream)
