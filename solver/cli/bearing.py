@@ -717,11 +717,43 @@ def film_spec(args, bearing, surface, omega_ref: float, sliding: float, quasi_st
     )
 
 
+def run_motion(args, comm) -> int:
+    """``--motion FILE``: the film in time (quasi_static=False, the engine's) driven through the motion
+    (solver.study.motion.drive), reported by solver.cli.motion; returns the exit status."""
+    from solver.cli import motion as report
+    from solver.study.motion import drive, reference_speed
+
+    report.check(args)
+    resolve_viscosity(args)
+    resolve_supply(args, quasi_static=False)
+    check_plausible(args)
+    _check_elastic(args, comm)
+    motion = report.motion_of(args)
+    start = args.start or "full"
+    sliding = float(max(abs(motion.omega_journal - motion.omega_bushing)))
+    clock = time.perf_counter()
+    spec = film_spec(
+        args,
+        bearing_from_args(args),
+        surface_from_args(args),
+        reference_speed(motion, args.clearance),
+        sliding,
+        quasi_static=False,
+    )
+    spec.check(ranks=comm.size)
+    from solver.film.factory import make_film  # dolfinx: after the checks
+
+    with make_film(spec, comm) as model:
+        setup_time = time.perf_counter() - clock
+        every = report.PROGRESS_ROWS if len(motion) > report.PROGRESS_ROWS else 0
+        result = drive(model, motion, start, progress_every=every)
+        dofs = model.dofs
+    return report.report(args, comm, motion, result, dofs, setup_time, start)
+
+
 def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     if args.motion is not None:
-        from solver.cli.motion import run_motion
-
         return run_motion(args, comm)
     if args.start is not None:
         raise InputError(

@@ -1,8 +1,8 @@
 """``python3 -m solver bearing ... --motion FILE``: the film of one bearing under a prescribed motion.
 
 The bearing, oil, surfaces, supply, cavitation law, bushing and numerics come from the bearing
-command's options (solver.cli.bearing); the motion from FILE (solver.study.motion: the columns, the
-checks, the driver). The film is the engine's (solver.film.factory.make_film with a film in time,
+command's options (solver.cli.bearing, which builds the film and drives it: ``run_motion``); the
+motion from FILE (solver.study.motion: the columns, the checks, the driver). The film is the engine's (solver.film.factory.make_film with a film in time,
 ``quasi_static=False``: without --inlet a film with history has the inlet 'none'), solved at every row
 with its history committed there. Output: ``DIR/bearing_motion.nc`` (dimension ``time``), a PNG of the
 forces, the peak pressure and the minimum film thickness over time, and a summary (``--json``: one JSON
@@ -14,28 +14,18 @@ from __future__ import annotations
 import json
 import math
 import sys
-import time
 
 import numpy as np
 
-from solver.cli.bearing import (
-    _check_elastic,
-    bearing_from_args,
-    check_plausible,
-    film_spec,
-    resolve_supply,
-    resolve_viscosity,
-    surface_from_args,
-)
 from solver.errors import InputError
 from solver.study import io
-from solver.study.motion import OUTPUTS, check_reach, drive, read_motion, reference_speed
+from solver.study.motion import OUTPUTS, Motion, MotionRun, check_reach, read_motion
 
 #: log a progress line every this many rows (files longer than this)
 PROGRESS_ROWS = 50
 
 
-def _check(args) -> None:
+def check(args) -> None:
     """What goes without --motion (one line naming the flag)."""
     for flag, given in (
         ("--attitude", args.attitude is not None),
@@ -45,36 +35,19 @@ def _check(args) -> None:
             raise InputError(f"{flag} with --motion (allowed: the motion file's columns instead)")
 
 
-def run_motion(args, comm) -> int:
-    """Drive the film through the motion file; write and report. Returns the exit status."""
+def motion_of(args) -> Motion:
+    """The checked Motion of ``--motion FILE`` (the clearance within the film's reach)."""
     from solver.film.types import ELASTIC_MAX_ECCENTRICITY
 
-    _check(args)
-    resolve_viscosity(args)
-    resolve_supply(args, quasi_static=False)
-    check_plausible(args)
-    _check_elastic(args, comm)
     motion = read_motion(args.motion, args.speed, args.bushing_speed)
     limit = 1.0 if args.elastic == "none" else ELASTIC_MAX_ECCENTRICITY
     check_reach(motion, args.clearance, limit, args.motion)
-    start = args.start or "full"
-    bearing = bearing_from_args(args)
-    surface = surface_from_args(args)
-    omega_ref = reference_speed(motion, args.clearance)
-    sliding = float(np.max(np.abs(motion.omega_journal - motion.omega_bushing)))
-    clock = time.perf_counter()
-    spec = film_spec(args, bearing, surface, omega_ref, sliding, quasi_static=False)
-    spec.check(ranks=comm.size)
-    from solver.film.factory import make_film  # dolfinx: after the checks
+    return motion
 
-    model = make_film(spec, comm)
-    setup_time = time.perf_counter() - clock
-    try:
-        every = PROGRESS_ROWS if len(motion) > PROGRESS_ROWS else 0
-        result = drive(model, motion, start, progress_every=every)
-    finally:
-        dofs = model.dofs
-        model.close()
+
+def report(args, comm, motion: Motion, result: MotionRun, dofs: int, setup_time: float, start: str) -> int:
+    """Write ``DIR/bearing_motion.nc``, its PNG and JSON (``--output``), print the summary; the exit
+    status."""
     summary = _summary(args, motion, result, dofs, setup_time, start)
     if args.output is not None:
         out = args.output
