@@ -2,11 +2,12 @@
 
 The bearing, oil, surfaces, supply, cavitation law, bushing and numerics come from the bearing
 command's options (solver.cli.bearing, which builds the film and drives it: ``run_motion``); the
-motion from FILE (solver.study.motion: the columns, the checks, the driver). The film is the engine's (solver.film.factory.make_film with a film in time,
-``quasi_static=False``: without --inlet a film with history has the inlet 'none'), solved at every row
-with its history committed there. Output: ``DIR/bearing_motion.nc`` (dimension ``time``), a PNG of the
-forces, the peak pressure and the minimum film thickness over time, and a summary (``--json``: one JSON
-object with the maxima, the means and the file's path).
+motion from FILE (solver.study.motion: the columns, the checks, the driver). The film is the engine's
+(solver.film.factory.make_film, a film in time: ``quasi_static=False``; without --inlet a film with
+history has the inlet 'none'), solved at every row with its history committed there. This module
+checks the options that go without --motion and the file, and reports: ``DIR/bearing_motion.nc``
+(dimension ``time``), a PNG of the forces, the peak pressure and the minimum film thickness over time,
+and a summary (``--json``: one JSON object with the maxima, the means and the file's path).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 from solver.errors import InputError
 from solver.study import io
-from solver.study.motion import OUTPUTS, Motion, MotionRun, check_reach, read_motion
+from solver.study.motion import MOTION_VARIABLES, OUTPUTS, Motion, MotionRun, check_reach, read_motion
 
 #: log a progress line every this many rows (files longer than this)
 PROGRESS_ROWS = 50
@@ -113,16 +114,8 @@ def _dataset(args, motion, result, start: str):
         name: ("time", result.values[name], {"units": units, "long_name": long_name})
         for name, (units, long_name, _) in OUTPUTS.items()
     }
-    inputs = {
-        "ecc_x_m": (motion.ecc[:, 0], "m", "eccentricity x (journal centre - bushing centre, bushing frame)"),
-        "ecc_y_m": (motion.ecc[:, 1], "m", "eccentricity y (bushing frame)"),
-        "ecc_rate_x_m_s": (motion.ecc_rate[:, 0], "m s-1", "d ecc_x / dt (bushing frame components)"),
-        "ecc_rate_y_m_s": (motion.ecc_rate[:, 1], "m s-1", "d ecc_y / dt (bushing frame components)"),
-        "journal_speed_rpm": (motion.omega_journal * 60 / (2 * math.pi), "rpm", "journal speed"),
-        "bushing_speed_rpm": (motion.omega_bushing * 60 / (2 * math.pi), "rpm", "bushing speed"),
-    }
-    for name, (data, units, long_name) in inputs.items():
-        variables[name] = ("time", data, {"units": units, "long_name": long_name})
+    for name, (units, long_name, get) in MOTION_VARIABLES.items():
+        variables[name] = ("time", get(motion), {"units": units, "long_name": long_name})
     variables["iterations"] = (
         "time",
         result.iterations,
@@ -162,6 +155,7 @@ def _plot(motion, result, path) -> None:
     axes[2].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(True, alpha=0.3)
+        ax.ticklabel_format(axis="y", useOffset=False)  # (a constant h_min: no 1e-12 + 2 axis)
     with io.atomic_path(path) as part:
         fig.savefig(part, format="png", dpi=120)
 

@@ -228,6 +228,21 @@ OUTPUTS = {
 }
 
 
+#: the motion as used, beside OUTPUTS in bearing_motion.nc: name -> (units, long_name, Motion -> values)
+MOTION_VARIABLES = {
+    "ecc_x_m": ("m", "eccentricity x (journal centre - bushing centre, bushing axes)", lambda m: m.ecc[:, 0]),
+    "ecc_y_m": ("m", "eccentricity y (bushing frame)", lambda m: m.ecc[:, 1]),
+    "ecc_rate_x_m_s": (
+        "m s-1",
+        "d ecc_x / dt (bushing-frame components; the file's, or its second-order differences)",
+        lambda m: m.ecc_rate[:, 0],
+    ),
+    "ecc_rate_y_m_s": ("m s-1", "d ecc_y / dt (as ecc_rate_x_m_s)", lambda m: m.ecc_rate[:, 1]),
+    "journal_speed_rpm": ("rpm", "journal speed", lambda m: m.omega_journal / RPM),
+    "bushing_speed_rpm": ("rpm", "bushing speed", lambda m: m.omega_bushing / RPM),
+}
+
+
 @dataclasses.dataclass
 class MotionRun:
     """The film's outputs at the rows (``values``: name of OUTPUTS -> array), the solver's effort."""
