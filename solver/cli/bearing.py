@@ -532,6 +532,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "bushing_speed_rpm (solver.cli.motion; docs/user-guide.md)",
     )
     parser.add_argument(
+        "--fields",
+        action="store_true",
+        help="with --motion and --output: the film's fields at every row as one ParaView time series "
+        "DIR/bearing_motion.xdmf (+ .h5; time in s)",
+    )
+    parser.add_argument(
         "--start",
         choices=("full", "steady"),
         default=None,
@@ -746,7 +752,16 @@ def run_motion(args, comm) -> int:
     with make_film(spec, comm) as model:
         setup_time = time.perf_counter() - clock
         every = report.PROGRESS_ROWS if len(motion) > report.PROGRESS_ROWS else 0
-        result = drive(model, motion, start, progress_every=every)
+        series = report.field_series(args, comm, model)
+        try:
+            after_row = None if series is None else (lambda i: series.write(float(motion.time[i])))
+            result = drive(model, motion, start, progress_every=every, after_row=after_row)
+        except BaseException:
+            if series is not None:
+                series.abort()
+            raise
+        if series is not None:
+            series.close()
         dofs = model.dofs
     return report.report(args, comm, motion, result, dofs, setup_time, start)
 
@@ -755,6 +770,10 @@ def run(args, comm) -> int:
     """Solve and report; returns the exit status."""
     if args.motion is not None:
         return run_motion(args, comm)
+    if args.fields:
+        raise InputError(
+            "--fields goes with --motion (allowed: omit it without --motion; --output writes the fields)"
+        )
     if args.start is not None:
         raise InputError(
             f"--start {args.start} goes with --motion (allowed: omit it with --eccentricity or --load)"

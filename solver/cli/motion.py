@@ -34,6 +34,19 @@ def check(args) -> None:
     ):
         if given:
             raise InputError(f"{flag} with --motion (allowed: the motion file's columns instead)")
+    if args.fields and args.output is None:
+        raise InputError("--fields without --output (allowed: --fields with --output DIR)")
+
+
+def field_series(args, comm, model):
+    """``--fields``: the ParaView series ``DIR/bearing_motion.xdmf`` (solver.study.io.FilmSeries: the
+    bushing frame, or with the max-gap inlet the solution frame, maximum gap at theta = 0), or None."""
+    if not args.fields:
+        return None
+    if comm.rank == 0:
+        args.output.mkdir(parents=True, exist_ok=True)
+    comm.Barrier()
+    return io.FilmSeries(args.output, "bearing_motion", model)
 
 
 def motion_of(args) -> Motion:

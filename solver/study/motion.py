@@ -264,10 +264,11 @@ def _full(model, state: np.ndarray) -> np.ndarray:
     return full
 
 
-def drive(model, motion: Motion, start: str = "full", progress_every: int = 0) -> MotionRun:
+def drive(model, motion: Motion, start: str = "full", progress_every: int = 0, after_row=None) -> MotionRun:
     """Solve ``model`` (solver.film.model.Film) at every row of ``motion``, committing its history at
-    each row (module docstring). A row that fails after MAX_HALVINGS halvings raises FilmNotConverged
-    naming its time."""
+    each row (module docstring); ``after_row(i)``, if given, is called after row i's solve (the film
+    then holds its solution: e.g. to write its fields). A row that fails after MAX_HALVINGS halvings
+    raises FilmNotConverged naming its time."""
     if start not in START:
         raise InputError(f"--start {start} is out of range (allowed: {', '.join(START)})")
     n = len(motion)
@@ -290,6 +291,8 @@ def drive(model, motion: Motion, start: str = "full", progress_every: int = 0) -
         for name, (_, _, get) in OUTPUTS.items():
             values[name][i] = get(result)
         iterations[i] = result.iterations
+        if after_row is not None:
+            after_row(i)
         if progress_every and (i + 1) % progress_every == 0 and i + 1 < n:
             log.info(
                 "motion: row %d of %d (t = %.6g s), %.1f s so far",

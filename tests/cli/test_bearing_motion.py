@@ -311,3 +311,102 @@ def test_bad_motion_is_one_line(tempdir, header, rows, options, fragments):
 def test_start_without_motion_is_one_line():
     result = run_cli("bearing", *BEARING, "--speed", "3000", "--eccentricity", "0.5", "--start", "steady")
     assert_one_line_error(result, "--start steady goes with --motion")
+
+
+def test_fields_are_a_time_series_of_the_rows(tempdir):
+    """--fields: DIR/bearing_motion.xdmf holds one grid per row at the row's time (1e-12 relative: the
+    times as written)."""
+    import xml.etree.ElementTree as ET
+
+    times = (0.0, 1e-4, 3e-4)
+    _write(tempdir / "m.csv", ("time_s", "ecc_x_m", "ecc_y_m"), [(t, 2e-6, -4e-6 - 1e-3 * t) for t in times])
+    out = tempdir / "out"
+    _json(
+        run_cli(
+            "bearing",
+            *BEARING,
+            "--speed",
+            "3000",
+            "--mesh-size",
+            "0.2",
+            "--motion",
+            str(tempdir / "m.csv"),
+            "--output",
+            str(out),
+            "--fields",
+            "--json",
+        )
+    )
+    written = [float(e.get("Value")) for e in ET.parse(out / "bearing_motion.xdmf").iter("Time")]
+    assert written == pytest.approx(times, rel=1e-12, abs=1e-18)
+    assert (out / "bearing_motion.h5").is_file()
+
+
+def test_fields_without_output_is_one_line(tempdir):
+    _write(tempdir / "m.csv", ("time_s", "ecc_x_m", "ecc_y_m"), [(t, 0.0, 0.0) for t in (0.0, 1e-4, 2e-4)])
+    result = run_cli("bearing", *BEARING, "--speed", "3000", "--motion", str(tempdir / "m.csv"), "--fields")
+    assert_one_line_error(result, "--fields without --output")
+
+
+def test_hermite_between_rows_is_exact_for_a_cubic():
+    """The internal steps' motion (Motion.between): cubic Hermite through the rows' positions and rates
+    reproduces a cubic e(t) and its derivative to round-off (1e-12 of the clearance-sized values)."""
+    from solver.study.motion import Motion
+
+    t = np.array([0.0, 2e-4, 5e-4])
+
+    def e(s):
+        return np.column_stack([1e-6 + 2e-3 * s - 4.0 * s**2 + 9e3 * s**3, -3e-6 + 1e-3 * s + 5e3 * s**3])
+
+    def rate(s):
+        return np.column_stack([2e-3 - 8.0 * s + 27e3 * s**2, 1e-3 + 15e3 * s**2])
+
+    motion = Motion(t, e(t), rate(t), np.array([10.0, 20.0, 40.0]), np.zeros(3))
+    for s in (0.0, 0.25, 0.5, 0.9, 1.0):
+        kin = motion.between(2, s)
+        ts = np.array([t[1] + s * (t[2] - t[1])])
+        assert np.allclose(kin.ecc, e(ts)[0], rtol=0, atol=1e-17)
+        assert np.allclose(kin.ecc_rate, rate(ts)[0], rtol=1e-12, atol=1e-15)
+        assert kin.omega_journal == pytest.approx(20.0 + 20.0 * s, rel=1e-14)
+
+
+def test_a_failing_row_is_reached_in_halved_steps():
+    """A film (a stand-in with the Film's history interface) that fails on steps longer than a quarter
+    row interval: the driver commits 3 internal states before each row (substeps 3 per row), at the
+    quarter times, and every row's result is the one solved at the row's own time."""
+    from solver.errors import FilmNotConverged
+    from solver.study.motion import Motion
+
+    class Film:
+        has_history = True
+        spec = type("Spec", (), {"cavitation": "reynolds"})()
+
+        def __init__(self):
+            self.commits, self.last = [], None
+
+        def solve(self, kin, time_s=None):
+            if time_s is not None and self.commits and time_s - self.commits[-1] > 0.26e-3:
+                raise FilmNotConverged("too long a step", -5, 3)
+            self.last = time_s
+            nan = float("nan")
+            r = dict.fromkeys(
+                ("p_max", "h_min", "torque_journal", "torque_bushing", "cavitated_area_ratio"), 1.0
+            )
+            r |= {"force": (time_s or 0.0, 0.0), "oil_volume": nan, "side_flow": 0.0, "supply_flow": 0.0}
+            return type("Result", (), {**r, "max_deformation": 0.0, "iterations": 1})()
+
+        def history_state(self):
+            return np.zeros(2)
+
+        def commit_history(self, state, time_s):
+            self.commits.append(time_s)
+
+    t = np.array([0.0, 1e-3, 2e-3])
+    motion = Motion(t, np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3), np.zeros(3))
+    film = Film()
+    run = drive(film, motion, "steady")
+    assert run.substeps == 6
+    assert film.commits == pytest.approx(
+        [0.0, 0.25e-3, 0.5e-3, 0.75e-3, 1e-3, 1.25e-3, 1.5e-3, 1.75e-3, 2e-3]
+    )
+    assert run.values["force_x_N"] == pytest.approx(t)
