@@ -130,8 +130,8 @@ def _squeeze_error(tempdir, width: float, mesh_size: float) -> float:
     # Short bearing, full (2 pi) film: d/dz(h^3/(12 mu) dp/dz) = dh/dt, h = c - e cos(theta), p = 0 at
     # z = +-B/2 gives p = 6 mu e' cos(theta) (B^2/4 - z^2) / h^3, so the force on the journal along e is
     # F = -mu R B^3 e' / c^3 integral cos^2 / (1 - eps cos)^3 = -mu R B^3 eps' / c^2 pi (1 + 2 eps^2) /
-    # (1 - eps^2)^(5/2) (e.g. Hamrock, Fundamentals of Fluid Film Lubrication, ch. 17, squeeze film
-    # journal bearing; the closed integral checked here by quadrature).
+    # (1 - eps^2)^(5/2) (the short-bearing squeeze film, e.g. Hamrock, Fundamentals of Fluid Film
+    # Lubrication; derived here, and the closed integral checked by quadrature).
     integral = quad(lambda t: math.cos(t) ** 2 / (1 - eps * math.cos(t)) ** 3, 0, 2 * math.pi, epsrel=1e-13)[
         0
     ]
