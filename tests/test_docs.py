@@ -12,6 +12,7 @@ import pytest
 
 from solver.case import FIELDS
 from solver.cli import docs
+from solver.study import motion
 from solver.study.results import VARIABLES
 from tests.conftest import ROOT, run_cli
 
@@ -41,9 +42,12 @@ def test_every_field_and_variable_has_its_row():
         assert spec.allowed().replace("|", "\\|") in rows[0]
     assert "| `engine.rod_mass_kg` | kg | 0.55 | > 0 |" in case_page
     assert "| `gas.combustion_start_deg` | deg | 350 | (180, 540) |" in case_page
+    results_nc, motion_nc = results_page.split("## `bearing --motion FILE`")  # (names may repeat)
     for name in VARIABLES:
-        assert sum(line.startswith(f"| `{name}` |") for line in results_page.splitlines()) == 1, name
-    assert "| `h_min` | m | minimum film thickness |" in results_page
+        assert sum(line.startswith(f"| `{name}` |") for line in results_nc.splitlines()) == 1, name
+    assert "| `h_min` | m | minimum film thickness |" in results_nc
+    for name in (*motion.OUTPUTS, *motion.MOTION_VARIABLES):
+        assert sum(line.startswith(f"| `{name}` |") for line in motion_nc.splitlines()) == 1, name
 
 
 @pytest.mark.serial

@@ -225,10 +225,10 @@ SUPPLY_FLAGS = {  # supply -> its flags (argparse dest, flag)
 }
 
 
-def resolve_supply(args) -> None:
+def resolve_supply(args, quasi_static: bool = True) -> None:
     """Check the oil supply options, set ``args.supply`` (``"none"`` or a key of SUPPLY_FLAGS) and
-    ``args.inlet`` (default: solver.film_rules.default_inlet, max-gap where the model allows it);
-    errors name the flags."""
+    ``args.inlet`` (default: solver.film_rules.default_inlet, max-gap where the model allows it for a
+    quasi-static film, or for a film in time with ``quasi_static=False``); errors name the flags."""
     given = [
         name
         for name, flags in SUPPLY_FLAGS.items()
@@ -273,7 +273,7 @@ def resolve_supply(args) -> None:
             cavitation=getattr(args, "cavitation", "reynolds"),
             bushing=getattr(args, "elastic", "none"),
             supply=args.supply != "none",
-            quasi_static=True,
+            quasi_static=quasi_static,
         )
 
 
@@ -538,6 +538,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="eccentricity ratio e/c",
     )
     mode.add_argument("--load", type=_number("--load", 0, allowed="> 0 N"), help="load on the journal [N]")
+    mode.add_argument(
+        "--motion",
+        type=Path,
+        metavar="FILE",
+        help="the film in time under a prescribed motion: a CSV file with the columns time_s, ecc_x_m, "
+        "ecc_y_m (bushing frame) and optionally ecc_rate_x_m_s, ecc_rate_y_m_s, journal_speed_rpm, "
+        "bushing_speed_rpm (solver.cli.motion; docs/user-guide.md)",
+    )
+    parser.add_argument(
+        "--fields",
+        action="store_true",
+        help="with --motion and --output: the film's fields at every row as one ParaView time series "
+        "DIR/bearing_motion.xdmf (+ .h5; time in s)",
+    )
+    parser.add_argument(
+        "--start",
+        choices=("full", "steady"),
+        default=None,
+        help="with --motion: the film's history at the first row, full (film fraction 1 one row before "
+        "it; default) or steady (the steady film at the first row, as an engine run starts)",
+    )
     parser.add_argument(
         "--bushing-speed",
         type=_number("--bushing-speed", allowed="a finite number of rpm"),
@@ -694,27 +715,14 @@ def bearing_from_args(args):
     )
 
 
-def run(args, comm) -> int:
-    """Solve and report; returns the exit status."""
-    resolve_viscosity(args)
-    resolve_supply(args)
-    _check(args)
-    _check_elastic(args, comm)
-    from solver.film.equilibrium import equilibrium
+def film_spec(args, bearing, surface, omega_ref: float, sliding: float, quasi_static: bool):
+    """The FilmSpec of the parsed options (the film's rules checked, before any mesh or compliance:
+    solver.film_rules): ``omega_ref`` the scaling's reference speed [rad/s], ``sliding`` the sliding
+    angular speed [rad/s] that sets the asperity friction's regularisation."""
     from solver.film.spec import FilmSpec
-    from solver.film.types import Kinematics
 
-    bearing = bearing_from_args(args)
-    surface = surface_from_args(args)
-    omega = args.speed * 2 * math.pi / 60
-    omega_b = args.bushing_speed * 2 * math.pi / 60
-    wedge = omega + omega_b  # twice the mean surface speed / R, relative to the fixed load line
-    sliding = omega - omega_b  # the journal's speed relative to the bushing (Couette friction)
-    rate = args.eccentricity_rate
-    omega_ref = abs(wedge) if wedge != 0 else abs(sliding) if sliding != 0 else abs(rate)
-    start = time.perf_counter()
     bushing, piezoviscosity = elastic_from_args(args, surface)
-    spec = FilmSpec(  # the film's rules, before any mesh or compliance (solver.film_rules)
+    return FilmSpec(
         bearing=bearing,
         omega_ref=omega_ref,
         mesh_size=args.mesh_size,
@@ -726,8 +734,82 @@ def run(args, comm) -> int:
         piezoviscosity=piezoviscosity,
         cavitation=args.cavitation,
         cavitated_shear=args.cavitated_shear,
-        quasi_static=True,
+        quasi_static=quasi_static,
     )
+
+
+def run_motion(args, comm) -> int:
+    """``--motion FILE``: the film in time (quasi_static=False, the engine's) driven through the motion
+    (solver.study.motion.drive), reported by solver.cli.motion; returns the exit status."""
+    from solver.cli import motion as report
+    from solver.study.motion import drive, reference_speed
+
+    report.check(args)
+    resolve_viscosity(args)
+    resolve_supply(args, quasi_static=False)
+    check_plausible(args)
+    _check_elastic(args, comm)
+    motion = report.motion_of(args)
+    start = args.start or "full"
+    sliding = float(max(abs(motion.omega_journal - motion.omega_bushing)))
+    clock = time.perf_counter()
+    spec = film_spec(
+        args,
+        bearing_from_args(args),
+        surface_from_args(args),
+        reference_speed(motion, args.clearance),
+        sliding,
+        quasi_static=False,
+    )
+    spec.check(ranks=comm.size)
+    from solver.film.factory import make_film  # dolfinx: after the checks
+
+    with make_film(spec, comm) as model:
+        setup_time = time.perf_counter() - clock
+        every = report.PROGRESS_ROWS if len(motion) > report.PROGRESS_ROWS else 0
+        series = report.field_series(args, comm, model)
+        try:
+            after_row = None if series is None else (lambda i: series.write(float(motion.time[i])))
+            result = drive(model, motion, start, progress_every=every, after_row=after_row)
+        except BaseException:
+            if series is not None:
+                series.abort()
+            raise
+        if series is not None:
+            series.close()
+        dofs = model.dofs
+    return report.report(args, comm, motion, result, dofs, setup_time, start)
+
+
+def run(args, comm) -> int:
+    """Solve and report; returns the exit status."""
+    if args.motion is not None:
+        return run_motion(args, comm)
+    if args.fields:
+        raise InputError(
+            "--fields goes with --motion (allowed: omit it without --motion; --output writes the fields)"
+        )
+    if args.start is not None:
+        raise InputError(
+            f"--start {args.start} goes with --motion (allowed: omit it with --eccentricity or --load)"
+        )
+    resolve_viscosity(args)
+    resolve_supply(args)
+    _check(args)
+    _check_elastic(args, comm)
+    from solver.film.equilibrium import equilibrium
+    from solver.film.types import Kinematics
+
+    bearing = bearing_from_args(args)
+    surface = surface_from_args(args)
+    omega = args.speed * 2 * math.pi / 60
+    omega_b = args.bushing_speed * 2 * math.pi / 60
+    wedge = omega + omega_b  # twice the mean surface speed / R, relative to the fixed load line
+    sliding = omega - omega_b  # the journal's speed relative to the bushing (Couette friction)
+    rate = args.eccentricity_rate
+    omega_ref = abs(wedge) if wedge != 0 else abs(sliding) if sliding != 0 else abs(rate)
+    start = time.perf_counter()
+    spec = film_spec(args, bearing, surface, omega_ref, sliding, quasi_static=True)
     spec.check(ranks=comm.size)
     from solver.film.factory import make_film  # dolfinx: after the checks
 

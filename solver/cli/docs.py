@@ -185,6 +185,19 @@ def results_reference() -> str:
         ]
         for name, meaning in timing.items():
             lines.append(f"| `timing.{_cell(name)}` | {_cell(meaning)} |")
+    from solver.study import motion
+
+    lines += [
+        "",
+        "## `bearing --motion FILE`: `bearing_motion.nc` (`solver.study.motion`)",
+        "",
+        "`python3 -m solver bearing ... --motion FILE --output DIR` writes `DIR/bearing_motion.nc`,",
+        "dimension `time` (s, the motion file's rows): the film's outputs (`OUTPUTS`) and the motion as",
+        "used (`MOTION_VARIABLES`), then `iterations` (the film solver's per row). How to write the motion",
+        "file: [the user guide](user-guide.md#the-film-under-a-prescribed-motion---motion-file).",
+        "",
+        *_variable_table({**motion.OUTPUTS, **motion.MOTION_VARIABLES}),
+    ]
     return "\n".join(lines) + "\n"
 
 
