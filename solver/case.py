@@ -477,7 +477,7 @@ FIELDS: tuple[FieldSpec, ...] = (
         choices=("eigen", "layer"),
         doc="fe: the compliance's basis (docs/models.md): eigen (modes of the whole compliance) or layer "
         "(the bushing's local compression node by node plus modes of the rest: a thin bushing on a stiff "
-        "housing; on the reference eye it misplaces the film's minimum, docs/verification.md)",
+        "housing; against the full compliance on refined grids: docs/verification.md)",
     ),
     FieldSpec(
         "small_end",
