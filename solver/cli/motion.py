@@ -169,6 +169,11 @@ def _plot(motion, result, path) -> None:
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.ticklabel_format(axis="y", useOffset=False)  # (a constant h_min: no 1e-12 + 2 axis)
+        low, high = ax.get_ylim()
+        middle, spread = (low + high) / 2, high - low
+        if spread < 1e-3 * max(abs(middle), 1e-30):  # a constant curve: +-5 % around it, not round-off
+            pad = 0.05 * abs(middle) if middle else 1.0
+            ax.set_ylim(middle - pad, middle + pad)
     with io.atomic_path(path) as part:
         fig.savefig(part, format="png", dpi=120)
 
