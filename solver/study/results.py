@@ -401,7 +401,8 @@ def results_owner(path: Path) -> tuple[str, str] | None:
 
 
 def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
-    """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle)."""
+    """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle); the
+    crankpin's orbit in the big eye (``orbit_big_end.png``) when the big end is a clearance joint."""
     angle = ds.crank_angle.values
     c = float(ds.attrs["small_end.clearance_um"]) * 1e-6
     paths = []
@@ -435,6 +436,25 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     ax.set_ylabel("e_y / c")
     ax.set_title(f"pin orbit in the bushing: {title}", fontsize=9)
     save(fig, "orbit.png")
+    # the big end's orbit, when it is a clearance joint
+    c_big = float(ds.attrs.get("big_end.clearance_um", math.nan)) * 1e-6
+    bx, by = (
+        ds[n].values / c_big if n in ds else np.full(len(angle), np.nan)
+        for n in ("big_end_ecc_x", "big_end_ecc_y")
+    )
+    if np.any(np.isfinite(bx)):
+        fig, ax = io.subplots(figsize=(5.6, 5.2), constrained_layout=True)
+        ax.plot(np.cos(circle), np.sin(circle), color="k", lw=1, label="clearance circle")
+        points = ax.scatter(bx, by, c=angle, cmap="twilight", s=6, vmin=0, vmax=720)
+        fig.colorbar(points, ax=ax, label="crank angle [deg]")
+        ax.plot(bx, by, color="0.5", lw=0.5)
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.1, 1.1)
+        ax.set_ylim(-1.1, 1.1)
+        ax.set_xlabel("e_x / c (along the rod, towards the small end)")
+        ax.set_ylabel("e_y / c")
+        ax.set_title(f"crankpin orbit in the big eye: {title}", fontsize=9)
+        save(fig, "orbit_big_end.png")
     # film thickness and pressure
     fig, (a1, a2) = io.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
     a1.plot(angle, ds.h_min.values * 1e6, color="tab:blue")
