@@ -11,11 +11,13 @@ References:
   ``-(e x F) / 2``: Hamrock, Fundamentals of Fluid Film Lubrication, ch. 16), and scipy's Radau;
 - the energy audit of a cycle with both joints lubricated (input work = dissipation in both films +
   change of mechanical energy);
+- the film force against the ideal joint's reaction (the ideal mechanism solved to round-off);
 - an existing case with ``[big_end] joint = "ideal"`` stated gives the answers of the case without it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -27,7 +29,7 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 
 from solver.case import load_case
-from solver.dynamics.engine import engine_from_case
+from solver.dynamics.engine import engine_from_case, simulate_ideal
 from solver.errors import InputError
 from solver.study.simulation import run_case
 from tests.conftest import ROOT
@@ -48,6 +50,12 @@ def make_case(directory: Path, solver: str, big_end: str = "") -> Path:
     return directory
 
 
+@functools.cache
+def gauss_legendre(nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [-1, 1] (computed once)."""
+    return np.polynomial.legendre.leggauss(nodes)
+
+
 def ocvirk_force(ecc, ecc_rate, omega_rel, *, mu, R, B, c, nodes=400):
     """Force of the bushing on the journal (bushing frame) of the short bearing, half-Sommerfeld.
 
@@ -62,7 +70,7 @@ def ocvirk_force(ecc, ecc_rate, omega_rel, *, mu, R, B, c, nodes=400):
     if a == 0.0 and b == 0.0:
         return np.zeros(2)
     d = math.atan2(b, a)
-    x, w = np.polynomial.legendre.leggauss(nodes)
+    x, w = gauss_legendre(nodes)
     theta = (math.pi - d) + 0.5 * math.pi * (x + 1.0)
     w = 0.5 * math.pi * w
     h = c - ex * np.cos(theta) - ey * np.sin(theta)
@@ -112,6 +120,8 @@ def independent_orbit(case, angles_deg: np.ndarray) -> np.ndarray:
     def rhs(t, y):
         theta, phi_y, J, c_terms, A, ecc, ecc_rate, omega_rel = pieces(t, y)
         eps = math.hypot(*ecc) / be.clearance
+        if eps >= 1.0:  # a trial state outside the clearance: no film there (Radau shortens the step)
+            return np.full(4, np.nan)
         F = ocvirk_force(ecc, ecc_rate, omega_rel, mu=mu, R=be.radius, B=be.width, c=be.clearance)
         couette = (
             mu * be.radius**3 * be.width * omega_rel * 2 * math.pi / (be.clearance * math.sqrt(1 - eps**2))
@@ -131,7 +141,6 @@ def independent_orbit(case, angles_deg: np.ndarray) -> np.ndarray:
     return np.array([pieces(t, y)[5] for t, y in zip(solution.t, solution.y.T)])
 
 
-@pytest.mark.slow
 @pytest.mark.serial
 def test_big_end_orbit_matches_an_independent_integration(tmp_path):
     """The first cycle of the big end alone (from the centred start): its eccentricity ratio within 1 %
@@ -158,9 +167,16 @@ def test_big_end_orbit_matches_an_independent_integration(tmp_path):
     assert np.allclose(ds.big_end_h_min.values, c - np.hypot(*project.T), rtol=0, atol=1e-12)
     assert np.all(np.isnan(ds.h_min.values))
     assert summary.big_end_h_min_min == pytest.approx(float(ds.big_end_h_min.min()), rel=1e-12)
+    # the film carries the ideal joint's load (the ideal mechanism's reaction, solved to round-off):
+    # the difference is the rod's inertia over its orbit in the clearance, a few N against a 33 kN peak;
+    # within 1 % of the peak at every output after the start (measured 1.2e-4; at 0 deg the film of
+    # the centred start carries nothing: 6.7 % of the peak)
+    ideal = simulate_ideal(engine_from_case(case), step_deg=2.0)
+    film = np.column_stack([ds.big_end_force_x.values, ds.big_end_force_y.values])
+    peak = np.max(np.hypot(*ideal.big_end_force.T))
+    assert np.max(np.hypot(*(film - ideal.big_end_force)[1:].T)) < 0.01 * peak
 
 
-@pytest.mark.slow
 @pytest.mark.serial
 def test_energy_audit_with_both_joints_lubricated(tmp_path):
     """Small end and big end both short bearings, one cycle: input work - change of mechanical energy
