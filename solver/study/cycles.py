@@ -7,16 +7,16 @@ and the film force depends on that velocity). At each output the state's variabl
 consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
 stage integrals accumulate (solver.study.energy); a film with history commits its state.
 
-The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated,
-else of the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to
-the next (at least two cycles, at most
-``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is set, the cycle-mean friction
-power by less than that fraction of itself; with oil.thermal = "effective" also when the cycle's heat
-balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
-solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the
-film's committed history, so an interrupted run resumes from the last finished cycle. An interruption
-(KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one) inside the cycles
-leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint is kept.
+The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else
+of the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next
+(at least two cycles, at most ``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is
+set, the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective"
+also when the cycle's heat balance closes (solver.study.film_temperature). The checkpoint
+(``results/checkpoint.npz``, solver.study.io.Checkpoint) holds the state, the per-cycle histories, the
+thermal iteration and the film's committed history, so an interrupted run resumes from the last finished
+cycle. An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
+inside the cycles leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint
+is kept.
 """
 
 from __future__ import annotations
