@@ -38,9 +38,12 @@ REFERENCE = ROOT / "cases" / "reference-2000rpm"
 
 
 def make_case(directory: Path, solver: str, big_end: str = "") -> Path:
-    """The reference case with other [solver] keys and a [big_end] section (if given)."""
+    """The reference case, without its [big_end] section, with other [solver] keys and a [big_end]
+    section (if given)."""
     directory.mkdir(parents=True, exist_ok=True)
     head = (REFERENCE / "case.toml").read_text().split("[solver]")[0]
+    before, after = head.split("[big_end]")
+    head = before + "[oil]" + after.split("[oil]", 1)[1]
     (directory / "case.toml").write_text(
         head.replace('name = "reference-2000rpm"', f'name = "{directory.name}"')
         + (f"\n[big_end]\n{big_end}" if big_end else "")
