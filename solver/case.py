@@ -13,7 +13,8 @@ from it; ``name`` defaults to the case directory's name. Errors are :class:`Inpu
 that names the field as ``section.key`` and its allowed range.
 
 Sections: ``[engine]``, ``[gas]`` (the mechanism and its loads), ``[small_end]``, ``[oil]``,
-``[surface]`` (the lubricated small end) and ``[solver]`` (the coupled run: joint model, mesh,
+``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a short-bearing
+clearance joint in the same oil) and ``[solver]`` (the coupled run: joint model, mesh,
 tolerances, cycles, outputs). Unknown sections and keys are errors.
 """
 
@@ -29,6 +30,7 @@ import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
 from solver.film_rules import (
+    BIG_END_LENGTHS,
     CASE_LENGTHS,
     CLEARANCE_RATIO_RANGE,
     RADIUS_RANGE,
@@ -40,6 +42,9 @@ from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 
 #: the small end's oil inlets (``oil.inlet``): the last three are an oil supply at ``oil.supply_pressure_bar``
 INLETS = ("none", "max-gap", "hole", "axial-groove", "circumferential-groove")
+
+#: the big end's models (``big_end.joint``)
+BIG_END_JOINTS = ("ideal", "short-bearing")
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -522,6 +527,48 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="fe, compliance_modes = 0: the largest truncation error of the displacement under the reference "
         "loads (uniform, 30 deg bumps; max norm, relative)",
     ),
+    # [big_end]
+    FieldSpec(
+        "big_end",
+        "joint",
+        "joint",
+        str,
+        "ideal",
+        choices=BIG_END_JOINTS,
+        doc="big-end model (crankpin in the rod's big eye): ideal revolute, or Ocvirk short bearing "
+        "(rigid, smooth, the oil of [oil])",
+    ),
+    _f(
+        "big_end",
+        "radius_mm",
+        "radius",
+        24.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"crankpin radius; in [{RADIUS_RANGE[0] * 1e3:g}, {RADIUS_RANGE[1] * 1e3:g}]",
+    ),
+    _f(
+        "big_end",
+        "width_mm",
+        "width",
+        20.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"big-end bearing width B; B / R in [{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}]",
+    ),
+    _f(
+        "big_end",
+        "clearance_um",
+        "clearance",
+        25.0,
+        1e-6,
+        0.0,
+        unit="um",
+        doc=f"big-end radial clearance c; c / R in [{CLEARANCE_RATIO_RANGE[0]:g}, "
+        f"{CLEARANCE_RATIO_RANGE[1]:g}]",
+    ),
     # [oil]
     _f(
         "oil",
@@ -974,7 +1021,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
 )
 
-SECTIONS = ("engine", "gas", "small_end", "oil", "surface", "solver")
+SECTIONS = ("engine", "gas", "small_end", "big_end", "oil", "surface", "solver")
 
 
 def _specs(section: str) -> tuple[FieldSpec, ...]:
@@ -1131,6 +1178,25 @@ class SmallEnd:
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
+class BigEnd:
+    """Big-end bearing (crankpin in the rod's big eye) geometry and model (SI)."""
+
+    joint: str = _field("big_end", "joint")  # ideal | short-bearing
+    radius: float = _field("big_end", "radius")  # m, crankpin radius
+    width: float = _field("big_end", "width")  # m
+    clearance: float = _field("big_end", "clearance")  # m, radial
+
+    def __post_init__(self) -> None:
+        _check_section(self, "big_end")
+        check_geometry(radius=self.radius, width=self.width, clearance=self.clearance, names=BIG_END_LENGTHS)
+
+    @property
+    def lubricated(self) -> bool:
+        """A clearance joint rather than an ideal revolute."""
+        return self.joint != "ideal"
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class Oil:
     """Lubricant (SI)."""
 
@@ -1246,7 +1312,7 @@ class Case:
         directory: the case directory (relative file names are resolved against it; results go to
             ``directory / "results"``).
         description: free text.
-        engine, gas, small_end, oil, surface, solver: the sections.
+        engine, gas, small_end, big_end, oil, surface, solver: the sections.
         defaulted: the sections the case file does not have (their defaults are used: all of them
             for an empty file, which is the reference engine); not a parameter of the case.
     """
@@ -1257,6 +1323,7 @@ class Case:
     engine: Engine = dataclasses.field(default_factory=Engine)
     gas: Gas = dataclasses.field(default_factory=Gas)
     small_end: SmallEnd = dataclasses.field(default_factory=SmallEnd)
+    big_end: BigEnd = dataclasses.field(default_factory=BigEnd)
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
     solver: Solver = dataclasses.field(default_factory=Solver)
@@ -1313,6 +1380,7 @@ _SECTION_CLASSES = {
     "engine": Engine,
     "gas": Gas,
     "small_end": SmallEnd,
+    "big_end": BigEnd,
     "oil": Oil,
     "surface": Surface,
     "solver": Solver,

@@ -38,6 +38,7 @@ _SECTIONS = {
     "engine": "`[engine]`: the crank-rod-piston mechanism",
     "gas": "`[gas]`: the cylinder pressure",
     "small_end": "`[small_end]`: the lubricated joint's geometry and bushing",
+    "big_end": "`[big_end]`: the big end (crankpin in the rod's big eye): ideal, or a clearance joint",
     "oil": "`[oil]`: the oil, its temperature, cavitation and supply",
     "surface": "`[surface]`: roughness, asperity contact and the dry joint",
     "solver": "`[solver]`: joint model, mesh, tolerances, cycles and outputs",

@@ -98,6 +98,8 @@ def run(args, comm) -> int:
             "p_max_max_Pa": summary.p_max_max,
             "F_asperity_max_N": summary.F_asperity_max,
             "friction_power_mean_W": summary.friction_power_mean,
+            "big_end_h_min_min_m": summary.big_end_h_min_min,
+            "big_end_friction_power_mean_W": summary.big_end_friction_power_mean,
             "cycles": summary.cycles,
             "periodic": summary.periodic,
             "wall_time_s": summary.wall_time,

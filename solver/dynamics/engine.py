@@ -13,7 +13,8 @@ Bodies (coordinates of the centres of mass, solver.dynamics.multibody):
   ``l_g`` from the big end: big end at ``(-l_g, 0)``, small end at ``(l - l_g, 0)``; phi = rod angle.
 - piston (2): centre of mass at the pin centre, at ``y = a`` (pin offset), no rotation.
 
-Joints: main bearing (crank - ground, revolute at the origin), big end (crankpin - rod, revolute),
+Joints: main bearing (crank - ground, revolute at the origin), big end (crankpin - rod: an ideal
+revolute, or a clearance joint with the crankpin as journal and the bushing in the rod's big eye),
 small end (pin - rod: an ideal revolute, or a clearance joint with the pin on the piston as journal and
 the bushing in the rod), cylinder (piston - ground, translational along +x at offset a), and the crank
 driver ``phi_crank = theta(t)`` (constant speed or a periodic speed trace).
@@ -310,18 +311,29 @@ class EngineMechanism:
 
     Attributes:
         engine: the engine.
-        mechanism: bodies crank (0), rod (1), piston (2); joints ``main_bearing``, ``big_end``,
-            ``small_end`` (only when ideal), ``cylinder``, ``crank_driver``.
-        small_end: the clearance-joint force element, or ``None`` for an ideal small end.
+        mechanism: bodies crank (0), rod (1), piston (2); joints ``main_bearing``, ``big_end`` (only
+            when ideal), ``small_end`` (only when ideal), ``cylinder``, ``crank_driver``.
+        small_end: the small end's clearance-joint force element, or ``None`` for an ideal small end.
+        big_end: the big end's clearance-joint force element, or ``None`` for an ideal big end.
     """
 
     engine: EngineModel
     mechanism: Mechanism
     small_end: ClearanceJointElement | None
+    big_end: ClearanceJointElement | None = None
+
+    @property
+    def clearance_joints(self) -> dict[str, ClearanceJointElement]:
+        """The clearance joints by name (``small_end``, ``big_end``), the ideal ones left out."""
+        return {
+            name: element
+            for name, element in (("small_end", self.small_end), ("big_end", self.big_end))
+            if element is not None
+        }
 
     def initial_state(self, theta: float = 0.0) -> tuple[float, np.ndarray, np.ndarray]:
-        """(t, q, qd) at crank angle theta, assembled exactly (pin centred, no relative motion)."""
-        ideal = self if self.small_end is None else build_mechanism(self.engine)
+        """(t, q, qd) at crank angle theta, assembled exactly (pins centred, no relative motion)."""
+        ideal = self if not self.clearance_joints else build_mechanism(self.engine)
         t = float(self.engine.crank_motion.time(theta))
         q = project_positions(ideal.mechanism, _configuration_guess(self.engine, theta), t, tolerance=1e-14)
         qd = project_velocities(ideal.mechanism, q, np.zeros_like(q), t)
@@ -338,14 +350,24 @@ def _configuration_guess(engine: EngineModel, theta: float) -> np.ndarray:
     return np.array([0.0, 0.0, theta, rod_centre[0], rod_centre[1], rod_angle, pin_x, a, 0.0])
 
 
-def build_mechanism(engine: EngineModel, small_end: ClearanceJoint | None = None) -> EngineMechanism:
-    """The crank-rod-piston mechanism with an ideal small end, or with a clearance joint there.
+def build_mechanism(
+    engine: EngineModel, small_end: ClearanceJoint | None = None, big_end: ClearanceJoint | None = None
+) -> EngineMechanism:
+    """The crank-rod-piston mechanism with ideal small and big ends, or clearance joints there.
+
+    A clearance joint replaces the revolute constraint by its film force: the rod is then free at that
+    end (two more free coordinates, its position relative to the pin, resp. to the crankpin), and the
+    joint's Jacobian block enters the integrator's through the force element (solver.dynamics.multibody).
 
     Args:
         engine: the engine.
         small_end: ``None`` for an ideal revolute small end; otherwise the clearance-joint law, placed
             with the journal = pin centre on the piston (body 2, point (0, 0)) and the bushing centre
             in the rod at ``(l - l_g, 0)`` (body 1): forces and kinematics in the rod (bushing) frame.
+        big_end: ``None`` for an ideal revolute big end; otherwise the clearance-joint law, placed with
+            the journal = crankpin centre on the crank (body 0, point (r, 0)) and the bushing centre in
+            the rod at ``(-l_g, 0)`` (body 1): forces and kinematics in the rod (bushing) frame, the
+            relative speed ``omega_crank - omega_rod``.
 
     Returns:
         The :class:`EngineMechanism`.
@@ -358,17 +380,21 @@ def build_mechanism(engine: EngineModel, small_end: ClearanceJoint | None = None
     )
     constraints = [
         Revolute(CRANK, (0.0, 0.0), None, (0.0, 0.0), name="main_bearing"),
-        Revolute(CRANK, (r, 0.0), ROD, (-l_g, 0.0), name="big_end"),
         Translational(PISTON, (0.0, 0.0), (1.0, 0.0), None, (0.0, 0.0), offset=a, angle=0.0, name="cylinder"),
         Driver(CRANK, "phi", engine.crank_motion.motion, name="crank_driver"),
     ]
     forces = []
-    element = None
+    element = big_element = None
     if small_end is None:
-        constraints.insert(2, Revolute(PISTON, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end"))
+        constraints.insert(1, Revolute(PISTON, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end"))
     else:
         element = ClearanceJointElement(small_end, PISTON, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end")
         forces.append(element)
+    if big_end is None:
+        constraints.insert(1, Revolute(CRANK, (r, 0.0), ROD, (-l_g, 0.0), name="big_end"))
+    else:
+        big_element = ClearanceJointElement(big_end, CRANK, (r, 0.0), ROD, (-l_g, 0.0), name="big_end")
+        forces.append(big_element)
     if engine.gravity:
         forces.append(Gravity((-engine.gravity, 0.0)))
 
@@ -382,7 +408,7 @@ def build_mechanism(engine: EngineModel, small_end: ClearanceJoint | None = None
 
     # the gas force acts on the cylinder axis (y = 0), i.e. at (0, -a) in the piston frame
     forces.append(AppliedForce(PISTON, (0.0, -a), gas_load, gas_load_jacobian))
-    return EngineMechanism(engine, Mechanism(bodies, tuple(constraints), tuple(forces)), element)
+    return EngineMechanism(engine, Mechanism(bodies, tuple(constraints), tuple(forces)), element, big_element)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Clearance-joint laws for the small end: kinematics in, forces and torques (with Jacobians) out.
+"""Clearance-joint laws for the small end and the big end: kinematics in, forces and torques (with
+Jacobians) out.
 
 All three implement ``solver.dynamics.multibody.ClearanceJoint`` (DESIGN 3.1): the arguments are the
 eccentricity ``e'`` of the journal (pin) in the bushing frame [m], its rate ``de'/dt`` in the bushing
@@ -539,3 +540,16 @@ def joint_from_case(case: Case, engine, comm, joint: str):
 
     model = make_film(spec, comm)
     return FilmJoint(model), model
+
+
+def big_end_joint_from_case(case: Case) -> ClearanceJoint | None:
+    """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else
+    Ocvirk's short bearing of the crankpin in the rod's big eye, in the oil of ``[oil]``."""
+    be = case.big_end
+    if be.joint == "ideal":
+        return None
+    if be.joint == "short-bearing":
+        return ShortBearingJoint(
+            radius=be.radius, width=be.width, clearance=be.clearance, viscosity=case.oil.viscosity
+        )
+    raise InputError(f"big_end.joint = {be.joint!r} is out of range (allowed: 'ideal', 'short-bearing')")

@@ -7,15 +7,16 @@ and the film force depends on that velocity). At each output the state's variabl
 consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
 stage integrals accumulate (solver.study.energy); a film with history commits its state.
 
-The run stops when the cycle minimum of the film thickness changes by less than
-``solver.periodic_tolerance`` x clearance from one cycle to the next (at least two cycles, at most
-``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is set, the cycle-mean friction
-power by less than that fraction of itself; with oil.thermal = "effective" also when the cycle's heat
-balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
-solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the
-film's committed history, so an interrupted run resumes from the last finished cycle. An interruption
-(KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one) inside the cycles
-leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint is kept.
+The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else
+of the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next
+(at least two cycles, at most ``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is
+set, the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective"
+also when the cycle's heat balance closes (solver.study.film_temperature). The checkpoint
+(``results/checkpoint.npz``, solver.study.io.Checkpoint) holds the state, the per-cycle histories, the
+thermal iteration and the film's committed history, so an interrupted run resumes from the last finished
+cycle. An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
+inside the cycles leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint
+is kept.
 """
 
 from __future__ import annotations
@@ -77,13 +78,15 @@ class CycleOutput:
     """Arrays over the output crank angles of one cycle (SI)."""
 
     columns: dict[str, np.ndarray]
-    h_min_min: float
+    h_min_min: float  # m, of the joint the periodic test follows (``prefix``)
     timing: dict[str, float] = dataclasses.field(default_factory=dict)  # see TIMING
+    prefix: str = ""  # of that joint's columns: "" the small end, "big_end_" the big end
 
     @property
     def friction_power_mean(self) -> float:
-        """W, the cycle mean of the friction power over the crank angle (as results.nc's summary)."""
-        return cycle_mean(self.columns["friction_power"], self.columns["crank_angle"])
+        """W, the cycle mean of the friction power over the crank angle (as results.nc's summary) of the
+        joint the periodic test follows."""
+        return cycle_mean(self.columns[self.prefix + "friction_power"], self.columns["crank_angle"])
 
 
 def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
@@ -99,7 +102,10 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * cycle), dtype=float)
     times[0] = t0
     audit = EnergyAudit(run.em, engine.gravity)
-    outputs = StateOutputs(run.em, engine, run.case.small_end.clearance, run.omega, audit)
+    outputs = StateOutputs(
+        run.em, engine, run.case.small_end.clearance, run.omega, audit, run.case.big_end.clearance
+    )
+    prefix = "" if run.lead == "small_end" else "big_end_"
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
 
     def step_accepted(t: float) -> None:
@@ -156,7 +162,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         work[1] += audit.projection_energy(q, arrival, qd)
         energies.append(work.copy())
         if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
-            progress(cycle, angles[k], rows[-1]["h_min"])
+            progress(cycle, angles[k], rows[-1][prefix + "h_min"])
     run.steps += stepper.steps
     columns = {k: np.array([r[k] for r in rows]) for k in rows[0]}
     columns.update(zip(STAGE_COLUMNS, np.array(energies).T))
@@ -176,7 +182,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
             film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds,
         )
         timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
-    return CycleOutput(columns, float(np.nanmin(columns["h_min"])), timing), (t, q, qd)
+    return CycleOutput(columns, float(np.nanmin(columns[prefix + "h_min"])), timing, prefix), (t, q, qd)
 
 
 def describe_timing(timing: dict[str, float]) -> str:
@@ -298,7 +304,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
 
     cycle = None
     periodic = False
-    c = case.small_end.clearance
+    c = run.clearances.get(run.lead, case.small_end.clearance)  # of the joint the periodic test follows
     friction_tolerance = case.solver.periodic_friction_tolerance
 
     def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)

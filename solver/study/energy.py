@@ -1,13 +1,13 @@
-"""The energy audit of a coupled cycle: the joint's powers, the mechanical energy and the work columns.
+"""The energy audit of a coupled cycle: the joints' powers, the mechanical energy and the work columns.
 
 Per output state: input power (crank + gas + gravity), mechanical energy, and the power dissipated in the
-joint ``D = -(F' . de'/dt + T_j omega_rel + omega_b (T_j + T_b + e' x F'))`` (the last term vanishes when
-the film's moment balance holds). The audit (``ENERGY_COLUMNS``, cumulative over the cycle) closes
-``input_work - change of mechanical energy = dissipated_energy - drift_work`` to the integration's
-accuracy (measured 5e-5 to 1.5e-3 of the dissipated energy at the default resolutions, 7e-3 on a coarse
-JFO run): the dissipation and the drift's work integrated along the integrator's stages
-(:meth:`EnergyAudit.stage_powers`), the driver's work from the crank's generalized momentum
-(:func:`input_work`).
+joint ``D = -(F' . de'/dt + T_j omega_rel + omega_b (T_j + T_b + e' x F'))`` (the last term vanishes when the
+film's moment balance holds), summed over the clearance joints (small end, big end). The audit
+(``ENERGY_COLUMNS``, cumulative over the cycle) closes ``input_work - change of mechanical energy =
+dissipated_energy - drift_work`` to the integration's accuracy (measured 5e-5 to 1.5e-3 of the dissipated
+energy at the default resolutions, 7e-3 on a coarse JFO run): the dissipation and the drift's work integrated
+along the integrator's stages (:meth:`EnergyAudit.stage_powers`), the driver's work from the crank's
+generalized momentum (:func:`input_work`).
 """
 
 from __future__ import annotations
@@ -55,7 +55,8 @@ def input_work(columns: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def joint_powers(kin, forces, qd) -> tuple[float, float, float]:
-    """(squeeze, friction, dissipated) power of the small end's forces at a state [W]."""
+    """(squeeze, friction, dissipated) power of a clearance joint's forces at a state [W] (its bushing
+    in the rod: the small end's or the big end's)."""
     F_b = np.asarray(forces.force)  # bushing on pin, rod frame
     omega_b = float(qd[3 * ROD + 2])
     squeeze = -float(F_b @ kin.ecc_rate)
@@ -65,11 +66,12 @@ def joint_powers(kin, forces, qd) -> tuple[float, float, float]:
 
 
 def kept_motion(em, q, t: float) -> np.ndarray:
-    """The rows whose velocity a projection prescribes: ``Phi_q`` and, with a clearance small end,
-    ``d(de'/dt)/dqd`` (its eccentricity rate, kept), shape (n_constraints [+ 2], n_coordinates)."""
+    """The rows whose velocity a projection prescribes: ``Phi_q`` and, for each clearance joint (small
+    end, big end), ``d(de'/dt)/dqd`` (its eccentricity rate, kept), shape (n_constraints [+ 2 per
+    clearance joint], n_coordinates)."""
     rows = [em.mechanism.jacobian(q, t)]
-    if em.small_end is not None:
-        rows.append(em.small_end.kinematics(q, np.zeros_like(q)).dz_dqd[2:4])
+    for element in em.clearance_joints.values():
+        rows.append(element.kinematics(q, np.zeros_like(q)).dz_dqd[2:4])
     return np.vstack(rows)
 
 
@@ -92,8 +94,8 @@ class EnergyAudit:
         return 0.5 * float(np.sum(masses * qd**2)), float(np.sum(m * self.gravity * x_cm))
 
     def _crank_direction(self, q, t: float) -> np.ndarray:
-        """V: the velocities of a unit crank speed that keep the small end's eccentricity (and every
-        constraint but the driver's), ``Phi_q V = e_driver``, ``de/dt(V) = 0``."""
+        """V: the velocities of a unit crank speed that keep the clearance joints' eccentricities (and
+        every constraint but the driver's), ``Phi_q V = e_driver``, ``de/dt(V) = 0``."""
         A = kept_motion(self.em, q, t)
         rhs = np.zeros(len(A))
         rhs[self.em.mechanism.rows["crank_driver"]] = 1.0
@@ -130,12 +132,12 @@ class EnergyAudit:
     def stage_powers(self, t: float, y: np.ndarray, qdd: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """[dissipated, drift] power [W] at a force evaluation of the integrator (a stage state).
 
-        dissipated: the joint's, as ``dissipated_power`` (its forces from the joint's cache: this is
-        the state it was just evaluated at); drift: ``-lambda^T (Phi_q qd + Phi_t)``, the power of the
-        constraints' reactions on the integrator's velocity residual (~rtol |qd|), which vanishes on the
-        velocity constraint: the ideal joints' whole power, and the driver's beyond ``tau omega`` (the
-        driver's work in input_work is taken at the prescribed speed). NaN after a failed evaluation
-        (its step is rejected; the joint is not asked again).
+        dissipated: the clearance joints' (small end and big end), as ``dissipated_power`` (their forces from
+        the joint's cache: this is the state it was just evaluated at); drift: ``-lambda^T (Phi_q qd +
+        Phi_t)``, the power of the constraints' reactions on the integrator's velocity residual (~rtol |qd|),
+        which vanishes on the velocity constraint: the ideal joints' whole power, and the driver's beyond
+        ``tau omega`` (the driver's work in input_work is taken at the prescribed speed). NaN after a failed
+        evaluation (its step is rejected; the joint is not asked again).
 
         Integrated along the stages (STAGE_COLUMNS): the drift exists only there (the outputs'
         velocities are consistent). The input power is not integrated this way: it carries the
@@ -144,17 +146,16 @@ class EnergyAudit:
         slope times the last Newton correction) missed the change of mechanical energy by up to 7e-3 J
         in a degree, where the joint dissipates ~0.2 J in a cycle (input_work instead).
         """
-        mech, element = self.em.mechanism, self.em.small_end
+        mech = self.em.mechanism
         n = mech.n_coordinates
         q, qd = y[:n], y[n:]
         if not np.all(np.isfinite(qdd)):
             return np.full(len(STAGE_COLUMNS), math.nan)
         dissipated = 0.0
-        if element is not None:
+        for element in self.em.clearance_joints.values():  # (both bushings are in the rod)
             kin = element.kinematics(q, qd)
-            dissipated = joint_powers(kin, element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t), qd)[
-                2
-            ]
+            forces = element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
+            dissipated += joint_powers(kin, forces, qd)[2]
         residual = mech.jacobian(q, t) @ qd + mech.phi_t(q, t)
         return np.array([dissipated, -float(lam @ residual)])
 

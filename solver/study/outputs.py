@@ -1,11 +1,12 @@
 """The variables of a coupled run at its output states (solver.study.results.STATE_VARIABLES).
 
-At each output crank angle (step ``solver.step_deg``): the mechanism's (piston motion, rod angle, gas
-force and cylinder pressure, crank torque), the clearance joint's kinematics, forces and powers (pin
-force on the rod, eccentricity in the rod frame, friction torque and power, squeeze and dissipated
-power), the joint's own variables (each joint reports them: ``joint.outputs``, the names in its
-``OUTPUTS``; e.g. a film's h_min, p_max, film and asperity loads, flows), and the energy bookkeeping
-(solver.study.energy). A variable no one reports stays NaN, the default of every STATE_VARIABLES entry.
+At each output crank angle (step ``solver.step_deg``): the mechanism's (piston motion, rod angle, gas force
+and cylinder pressure, crank torque, the big end's force on the rod), each clearance joint's kinematics,
+forces and powers (pin force on the rod, eccentricity in the rod frame, friction torque and power, squeeze and
+dissipated power; the big end's prefixed ``big_end_``), the joint's own variables (each joint reports them:
+``joint.outputs``, the names in its ``OUTPUTS``; e.g. a film's h_min, p_max, film and asperity loads, flows),
+and the energy bookkeeping (solver.study.energy). A variable no one reports stays NaN, the default of every
+STATE_VARIABLES entry.
 """
 
 from __future__ import annotations
@@ -27,11 +28,20 @@ class StateOutputs:
         em: the engine mechanism (solver.dynamics.engine.build_mechanism).
         engine: its engine model (gas force, cylinder pressure).
         clearance: m, the small end's radial clearance.
+        big_end_clearance: m, the big end's (a clearance big end only).
         baumgarte: 1/s, the integration's Baumgarte gains (alpha = beta) for the accelerations.
         audit: the energy terms of the same mechanism.
     """
 
-    def __init__(self, em, engine, clearance: float, baumgarte: float, audit: EnergyAudit):
+    def __init__(
+        self,
+        em,
+        engine,
+        clearance: float,
+        baumgarte: float,
+        audit: EnergyAudit,
+        big_end_clearance: float = math.nan,
+    ):
         self.em, self.engine, self.clearance, self.baumgarte, self.audit = (
             em,
             engine,
@@ -39,6 +49,7 @@ class StateOutputs:
             baumgarte,
             audit,
         )
+        self.big_end_clearance = big_end_clearance
 
     def at(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state reached with velocities qd, evaluated at consistent velocities (and the
@@ -63,10 +74,12 @@ class StateOutputs:
         also the first one of the next interval.
         """
         mech = self.em.mechanism
-        if self.em.small_end is None:
+        if not self.em.clearance_joints:
             return qd
         A = kept_motion(self.em, q, t)
-        residual = np.concatenate([-mech.phi_t(q, t) - A[: mech.n_constraints] @ qd, np.zeros(2)])
+        residual = np.concatenate(
+            [-mech.phi_t(q, t) - A[: mech.n_constraints] @ qd, np.zeros(len(A) - mech.n_constraints)]
+        )
         return qd + A.T @ np.linalg.lstsq(A @ A.T, residual, rcond=None)[0]
 
     def variables(self, t: float, q, qd, qdd, lam) -> dict[str, float]:
@@ -90,14 +103,21 @@ class StateOutputs:
             out["pin_force_x"], out["pin_force_y"] = reactions["small_end"][ROD, :2]
         else:
             out.update(self._clearance_joint(t, q, qd))
+        if em.big_end is None:  # force of the crankpin on the rod
+            out["big_end_force_x"], out["big_end_force_y"] = reactions["big_end"][ROD, :2]
+        else:
+            out.update(self._clearance_joint(t, q, qd, "big_end"))
         # energy: input power of the driver, the gas and gravity; mechanical energy
         out["kinetic_energy"], out["potential_energy"] = self.audit.energies(q, qd)
         out["input_power"] = out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON]
         return out
 
-    def _clearance_joint(self, t: float, q, qd) -> dict[str, float]:
-        """The clearance joint's kinematics, forces and powers, then the variables it reports itself."""
-        element = self.em.small_end
+    def _clearance_joint(self, t: float, q, qd, name: str = "small_end") -> dict[str, float]:
+        """A clearance joint's kinematics, forces and powers, then the variables it reports itself: the
+        small end's under their own names, the big end's prefixed ``big_end_`` (its force on the rod as
+        ``big_end_force``); those without a place in STATE_VARIABLES are left out."""
+        element = self.em.small_end if name == "small_end" else self.em.big_end
+        clearance = self.clearance if name == "small_end" else self.big_end_clearance
         kin = element.kinematics(q, qd)
         forces = element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
         F_b = np.asarray(forces.force)  # bushing on pin, rod frame
@@ -112,7 +132,7 @@ class StateOutputs:
             omega_rel=kin.omega_rel,
             pin_force_x=pin_on_rod[0],
             pin_force_y=pin_on_rod[1],
-            h_min=self.clearance - math.hypot(*kin.ecc),
+            h_min=clearance - math.hypot(*kin.ecc),
             h_min_angle=math.degrees(math.atan2(kin.ecc[1], kin.ecc[0])) % 360.0,  # rigid: along e'
             friction_torque=forces.journal_torque,
             friction_power=friction,
@@ -120,7 +140,11 @@ class StateOutputs:
             dissipated_power=dissipated,
         )
         values.update(element.joint.outputs(kin.ecc, kin.ecc_rate, kin.omega_rel, t, forces))
-        return values
+        if name == "small_end":
+            return values
+        renamed = {"pin_force_x": "big_end_force_x", "pin_force_y": "big_end_force_y"}
+        values = {renamed.get(key, f"big_end_{key}"): value for key, value in values.items()}
+        return {key: value for key, value in values.items() if key in STATE_VARIABLES}
 
 
 def ideal_cycle_columns(ideal) -> dict[str, np.ndarray]:
@@ -140,6 +164,8 @@ def ideal_cycle_columns(ideal) -> dict[str, np.ndarray]:
         crank_torque=ideal.crank_torque,
         pin_force_x=ideal.pin_force_x,
         pin_force_y=ideal.pin_force_y,
+        big_end_force_x=ideal.big_end_force[:, 0],
+        big_end_force_y=ideal.big_end_force[:, 1],
         input_power=ideal.crank_torque * ideal.crank_speed - ideal.gas_force * ideal.piston_velocity,
     )
     return columns

@@ -135,11 +135,13 @@ class CycleMap:
         eccentricity in its bushing and its rate (the free coordinates: the others follow from the
         constraints, and weighed as coordinates the crank's and rod's angles would bring the
         integrator's angle tolerance, 1e-6 rad, in as 1e-2 clearance)."""
-        c = self.run.case.small_end.clearance
-        pin = self.run.em.small_end.kinematics(state.q, state.qd)
+        joints = self.run.em.clearance_joints  # (the small end first, then the big end)
+        pins = [(joints[name].kinematics(state.q, state.qd), c) for name, c in self.run.clearances.items()]
         parts = {
-            "position": np.asarray(pin.ecc, dtype=float) / c,
-            "velocity": np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega),
+            "position": np.concatenate([np.asarray(pin.ecc, dtype=float) / c for pin, c in pins]),
+            "velocity": np.concatenate(
+                [np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega) for pin, c in pins]
+            ),
         }
         if self.film_nodes and state.film:
             x = state.film[-1][1]
@@ -235,10 +237,13 @@ class CycleMap:
             film_shift = sum(a * e.film[-1][1] for a, e in zip(alpha, ends)) - end.film[-1][1]
         plain_q = self._period_q(end)
         mechanism = self.run.em.mechanism
-        element = self.run.em.small_end
-        limit = self.run.case.small_end.clearance * (
-            self.run.model.max_eccentricity_ratio if self.run.model is not None else 1.0
-        )
+        joints = self.run.em.clearance_joints
+        limits = {  # the finite-element film (small end) has its own largest eccentricity ratio
+            name: c * (self.run.model.max_eccentricity_ratio if self.run.model is not None else 1.0)
+            if name == "small_end"
+            else c
+            for name, c in self.run.clearances.items()
+        }
         for _ in range(6):  # the step halved toward the plain start until the pin is inside
             q = np.array(end.q, dtype=float) + (q_period - plain_q)
             try:
@@ -247,8 +252,11 @@ class CycleMap:
                 q = None
             if q is not None:
                 v = project_velocities(mechanism, q, qd, end.t)
-                eccentricity = element.kinematics(q, v).ecc if element is not None else np.zeros(2)
-                if math.hypot(*eccentricity) < 0.98 * limit:
+                inside = all(
+                    math.hypot(*joints[name].kinematics(q, v).ecc) < 0.98 * limit
+                    for name, limit in limits.items()
+                )
+                if inside:
                     film = end.film
                     if film_shift is not None:
                         film = [(time_s, self._admissible(x + film_shift)) for time_s, x in end.film]

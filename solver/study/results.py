@@ -25,6 +25,7 @@ import xarray as xr
 from solver import __version__
 from solver.case import case_attributes
 from solver.study import io
+from solver.study.thermal import cycle_mean
 
 log = logging.getLogger(__name__)
 
@@ -99,7 +100,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
     ),
     "dissipated_energy": (
         "J",
-        "energy dissipated in the joint since the cycle's start, integrated along the integrator's stages",
+        "energy dissipated in the clearance joints (small end, and big end when lubricated) since the "
+        "cycle's start, integrated along the integrator's stages",
     ),
     "drift_work": (
         "J",
@@ -107,6 +109,27 @@ VARIABLES: dict[str, tuple[str, str]] = {
         "since the cycle's start, with the kinetic energy of the velocities' projection at the "
         "outputs: a numerical term (0 for an exact solution)",
     ),
+    # the big end (crankpin in the rod's big eye; big_end.joint): its force on the rod with any joint,
+    # the clearance joint's variables (NaN for the ideal big end) as the small end's, in the rod frame
+    "big_end_force_x": ("N", "force of the crankpin on the rod big end, x (film force when lubricated)"),
+    "big_end_force_y": ("N", "force of the crankpin on the rod big end, y (film force when lubricated)"),
+    "big_end_ecc_x": ("m", "eccentricity of the crankpin in the big eye (rod frame), x (along the rod)"),
+    "big_end_ecc_y": ("m", "eccentricity of the crankpin in the big eye (rod frame), y"),
+    "big_end_ecc_rate_x": ("m s-1", "rate of big_end_ecc_x in the rotating rod frame"),
+    "big_end_ecc_rate_y": ("m s-1", "rate of big_end_ecc_y in the rotating rod frame"),
+    "big_end_omega_rel": ("rad s-1", "angular speed of the crank relative to the rod"),
+    "big_end_h_min": ("m", "big end: minimum film thickness"),
+    "big_end_h_min_angle": ("degree", "big end: rod-frame angle of the thinnest film, as h_min_angle"),
+    "big_end_p_max": ("Pa", "big end: peak film pressure"),
+    "big_end_F_hydro": ("N", "big end: film (hydrodynamic) force magnitude"),
+    "big_end_friction_torque": ("N m", "big end: friction torque on the crankpin about its centre"),
+    "big_end_friction_power": (
+        "W",
+        "big end: friction power loss, -big_end_friction_torque x (omega_crank - omega_rod)",
+    ),
+    "big_end_squeeze_power": ("W", "big end: power of the joint force on the relative motion, -F . de/dt"),
+    "big_end_side_flow": ("m3 s-1", "big end: oil volume flow out of both edges"),
+    "big_end_dissipated_power": ("W", "big end: power dissipated in the joint (friction + squeeze)"),
 }
 
 
@@ -182,6 +205,8 @@ class RunSummary:
     heat_to_oil: float = math.nan  # W
     heat_carried: float = math.nan  # W, by the side flow
     wall_time_last_invocation: float = math.nan  # s, of the invocation that finished the run
+    big_end_h_min_min: float = math.nan  # m, cycle minimum of the big end's film thickness (NaN: ideal)
+    big_end_friction_power_mean: float = math.nan  # W, cycle mean of the big end's friction power
 
 
 def attach_log(path: Path, comm: MPI.Comm) -> logging.Handler | None:
@@ -259,7 +284,11 @@ def write_results(
         "h_min_min": nan_reduce(np.nanmin, cols["h_min"]),
         "p_max_max": nan_reduce(np.nanmax, cols["p_max"]),
         "F_asperity_max": nan_reduce(np.nanmax, cols["F_asperity"]),
-        "friction_power_mean": cycle.friction_power_mean,
+        "friction_power_mean": cycle_mean(cols["friction_power"], cols["crank_angle"]),
+    }
+    big_end = {
+        "big_end_h_min_min": nan_reduce(np.nanmin, cols["big_end_h_min"]),
+        "big_end_friction_power_mean": cycle_mean(cols["big_end_friction_power"], cols["crank_angle"]),
     }
     film = run.oil.record(cols)
     attrs = {**case_attributes(case)}
@@ -280,6 +309,7 @@ def write_results(
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "fields": ", ".join(p.name for p in fields),
             **{f"summary.{k}": v for k, v in summary_values.items()},
+            **{f"summary.{k}": v for k, v in big_end.items() if math.isfinite(v)},
             **{
                 f"timing.{name}": np.array(
                     [cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float
@@ -327,6 +357,7 @@ def write_results(
         wall_time=wall_time,
         wall_time_last_invocation=invocation,
         **summary_values,
+        **big_end,
         **{
             name: film[name]
             for name in (
@@ -370,7 +401,8 @@ def results_owner(path: Path) -> tuple[str, str] | None:
 
 
 def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
-    """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle)."""
+    """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle); the
+    crankpin's orbit in the big eye (``orbit_big_end.png``) when the big end is a clearance joint."""
     angle = ds.crank_angle.values
     c = float(ds.attrs["small_end.clearance_um"]) * 1e-6
     paths = []
@@ -404,6 +436,25 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     ax.set_ylabel("e_y / c")
     ax.set_title(f"pin orbit in the bushing: {title}", fontsize=9)
     save(fig, "orbit.png")
+    # the big end's orbit, when it is a clearance joint
+    c_big = float(ds.attrs.get("big_end.clearance_um", math.nan)) * 1e-6
+    bx, by = (
+        ds[n].values / c_big if n in ds else np.full(len(angle), np.nan)
+        for n in ("big_end_ecc_x", "big_end_ecc_y")
+    )
+    if np.any(np.isfinite(bx)):
+        fig, ax = io.subplots(figsize=(5.6, 5.2), constrained_layout=True)
+        ax.plot(np.cos(circle), np.sin(circle), color="k", lw=1, label="clearance circle")
+        points = ax.scatter(bx, by, c=angle, cmap="twilight", s=6, vmin=0, vmax=720)
+        fig.colorbar(points, ax=ax, label="crank angle [deg]")
+        ax.plot(bx, by, color="0.5", lw=0.5)
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.1, 1.1)
+        ax.set_ylim(-1.1, 1.1)
+        ax.set_xlabel("e_x / c (along the rod, towards the small end)")
+        ax.set_ylabel("e_y / c")
+        ax.set_title(f"crankpin orbit in the big eye: {title}", fontsize=9)
+        save(fig, "orbit_big_end.png")
     # film thickness and pressure
     fig, (a1, a2) = io.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
     a1.plot(angle, ds.h_min.values * 1e6, color="tab:blue")

@@ -1,10 +1,11 @@
 """One engine operating point with the lubricated small end: cycles until periodic, then results.
 
 The case's engine (solver.dynamics.engine) is built with the small end as a clearance joint whose law is one
-of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``short-bearing``;
-``dry``) or as an ideal revolute (``ideal``). The equations of motion are integrated with the
-L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the joint's exact Jacobian,
-so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
+of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``short-bearing``; ``dry``) or as
+an ideal revolute (``ideal``), and the big end as an ideal revolute or a short-bearing clearance joint
+(``big_end.joint``); both joints' forces enter every stage of one integration. The equations of motion are
+integrated with the L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the
+joint's exact Jacobian, so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
 
 The run starts from the ideal-joint configuration at 0 deg with the pin centred in its bushing and
 integrates whole 720 deg cycles until periodic; the last cycle is reported. The study by concern:
@@ -38,7 +39,7 @@ import numpy as np
 from solver import __version__
 from solver.case import Case, case_attributes, defaults_note, load_case
 from solver.dynamics.engine import build_mechanism, engine_from_case, simulate_ideal
-from solver.dynamics.joint import JOINTS, joint_from_case
+from solver.dynamics.joint import JOINTS, big_end_joint_from_case, joint_from_case
 from solver.errors import InputError
 from solver.study import cycles, fields
 from solver.study import results as results_io
@@ -68,8 +69,16 @@ class Run:
         self.engine = engine_from_case(case)
         self.omega = self.engine.crank_motion.speed
         self.joint, self.model = joint_from_case(case, self.engine, comm, joint_name)
-        self.em = build_mechanism(self.engine, self.joint)
-        c = case.small_end.clearance
+        self.big_joint = big_end_joint_from_case(case)  # None: an ideal big end
+        self.em = build_mechanism(self.engine, self.joint, self.big_joint)
+        # the lubricated joints' radial clearances [m], by name (solver.dynamics.engine.clearance_joints)
+        self.clearances = {
+            name: case.small_end.clearance if name == "small_end" else case.big_end.clearance
+            for name in self.em.clearance_joints
+        }
+        # the joint the periodic test and the progress bar follow: the small end when it is lubricated
+        self.lead = "small_end" if self.joint is not None or self.big_joint is None else "big_end"
+        c = min(self.clearances.values(), default=case.small_end.clearance)
         n = self.em.mechanism.n_coordinates
         position = np.tile([1e-4 * c, 1e-4 * c, 1e-6], n // 3)
         self.atol = np.concatenate([position, position * self.omega])
@@ -141,6 +150,11 @@ def run_case(
     joint = joint or case.solver.joint
     if joint not in JOINTS:
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
+    if case.oil.thermal == "effective" and case.big_end.lubricated:
+        raise InputError(
+            'oil.thermal = "effective" is for the small end\'s film alone (allowed: big_end.joint = "ideal"; '
+            f"got {case.big_end.joint!r})"
+        )
     if case.oil.thermal == "effective" and joint not in ("mixed-fem", "short-bearing"):
         raise InputError(
             f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
@@ -154,12 +168,14 @@ def run_case(
     run = None
     try:
         log.info("case %s: joint %s, solver %s", case.name, joint, __version__)
+        if case.big_end.lubricated:
+            log.info("big end: joint %s", case.big_end.joint)
         if defaults_note(case):
             log.info(defaults_note(case))
         ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))
         run = Run(case, comm, joint)
         run.started = start
-        if joint == "ideal":  # kinematically determined: the ideal cycle is the answer
+        if joint == "ideal" and not case.big_end.lubricated:  # kinematically determined: the ideal cycle
             cycles_done, periodic = 1, True
             cycle = CycleOutput(ideal_cycle_columns(ideal), math.nan)
         else:
