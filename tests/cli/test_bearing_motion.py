@@ -454,3 +454,43 @@ def test_row_interval_convergence_is_second_order(tempdir):
     ends = np.array(ends)
     ratios = (ends[0] - ends[1]) / (ends[1] - ends[2])
     assert np.all((ratios > 3.2) & (ratios < 4.8)), ratios
+
+
+@pytest.mark.slow
+def test_film_mesh_convergence_is_second_order(tempdir):
+    """The grooved Winkler bearing of the row-interval test (full film, squeeze oscillation with
+    rotation, from the steady film), 40 rows, on film meshes of 0.1, 0.05 and 0.025 R: the load F_y at
+    the end and the largest p_max over the run converge at the P1 elements' second order, the ratio of
+    the successive differences within (3, 6) (4 in the limit; measured 4.89 for F_y, 4.11 for p_max;
+    from 0.2 R 4.42 and 3.36). F_x, 6 % of the load and the difference of the groove's two sides, is
+    not yet asymptotic at these meshes (ratio 1.3) and is not checked."""
+    import xarray as xr
+
+    options = [
+        *BEARING,
+        *["--speed", "3000", "--groove-angle", "90", "--groove-arc", "30", "--groove-length", "0.01"],
+        *["--supply-pressure", "2e5", "--start", "steady", "--cavitation-pressure", "-1e9"],
+        *["--elastic", "winkler", "--bushing-thickness", "1.5e-3", "--E-bushing", "2e9"],
+    ]
+    t = np.linspace(0.0, 2e-3, 41)
+    w = 2 * math.pi * 500
+    _write(
+        tempdir / "m.csv",
+        ("time_s", "ecc_x_m", "ecc_y_m", "ecc_rate_x_m_s", "ecc_rate_y_m_s"),
+        zip(t, 0 * t, -4e-6 - 3e-6 * np.sin(w * t), 0 * t, -3e-6 * w * np.cos(w * t)),
+    )
+    values = []
+    for mesh in ("0.1", "0.05", "0.025"):
+        out = tempdir / f"out{mesh}"
+        _json(
+            run_cli(
+                "bearing",
+                *options,
+                *["--mesh-size", mesh, "--motion", str(tempdir / "m.csv"), "--output", str(out), "--json"],
+            )
+        )
+        with xr.open_dataset(out / "bearing_motion.nc") as ds:
+            values.append([float(ds["force_y_N"].values[-1]), float(ds["p_max_Pa"].values.max())])
+    values = np.array(values)
+    ratios = (values[0] - values[1]) / (values[1] - values[2])
+    assert np.all((ratios > 3.0) & (ratios < 6.0)), ratios
