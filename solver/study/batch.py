@@ -253,6 +253,8 @@ def _metrics(summary: Any) -> dict[str, Any]:
         "heat_generated",
         "heat_to_oil",
         "heat_carried",
+        "big_end_h_min_min",
+        "big_end_friction_power_mean",
     ):
         value = getattr(summary, name, None)
         if isinstance(value, (bool, np.bool_)):

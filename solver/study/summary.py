@@ -7,18 +7,19 @@
   ``engine.speed_rpm``), with ``units`` and ``long_name``. Parameters are read from each case's
   ``case.toml`` with the defaults of solver.case.FIELDS filled in, so failed cases have them too.
   The parameters that are the same in every case are global attributes ``section.key``.
-- variables (NaN for cases without a finished run): ``h_min_min`` [m] cycle minimum of the minimum
-  film thickness, ``p_max_max`` [Pa] cycle maximum of the peak film pressure, ``F_asperity_max``
-  [N] cycle maximum of the asperity contact force, ``friction_power_mean`` [W] cycle mean of the
-  friction power, ``run_time`` [s] wall time of the run (over every invocation that worked on it: a
-  resumed run's earlier part included), ``run_time_last_invocation`` [s] the part of the invocation
-  that finished it; the integers ``cycles`` (int32; 0 without a finished run) and ``periodic`` (int8,
-  1 periodic, 0 not, or no finished run; CF ``flag_values``/``flag_meanings``), ``ran_this_invocation``
-  (int8, 1 when the case ran in the batch invocation that wrote the summary, 0 when it had finished
-  before or did not run); and the strings ``status`` (complete = finished, in this or an earlier
-  invocation; failed, invalid, missing) and ``error``. The metrics come from ``results/results.nc``:
-  its ``summary.*`` attributes when present, else computed from its variables with the same
-  definitions (trapezoidal cycle mean).
+- variables (NaN for cases without a finished run): ``h_min_min`` [m] cycle minimum of the minimum film
+  thickness, ``p_max_max`` [Pa] cycle maximum of the peak film pressure, ``F_asperity_max`` [N] cycle
+  maximum of the asperity contact force, ``friction_power_mean`` [W] cycle mean of the friction power,
+  ``big_end_h_min_min``, ``big_end_p_max_max``, ``big_end_friction_power_mean`` the same of the big end
+  (NaN where it is ideal), ``run_time`` [s] wall time of the run (over every invocation that worked on
+  it: a resumed run's earlier part included), ``run_time_last_invocation`` [s] the part of the
+  invocation that finished it; the integers ``cycles`` (int32; 0 without a finished run) and
+  ``periodic`` (int8, 1 periodic, 0 not, or no finished run; CF ``flag_values``/``flag_meanings``),
+  ``ran_this_invocation`` (int8, 1 when the case ran in the batch invocation that wrote the summary, 0
+  when it had finished before or did not run); and the strings ``status`` (complete = finished, in this
+  or an earlier invocation; failed, invalid, missing) and ``error``. The metrics come from
+  ``results/results.nc``: its ``summary.*`` attributes when present, else computed from its variables
+  with the same definitions (trapezoidal cycle mean).
 - attributes: besides the constant parameters, ``n_cases`` and the counts ``n_complete`` (every
   finished case), ``n_skipped`` (of them, those finished before this invocation), ``n_failed``,
   ``n_invalid``, ``n_missing``.
@@ -52,6 +53,24 @@ METRICS: dict[str, tuple[str, str, float, str]] = {
     "F_asperity_max": ("N", "cycle maximum of the asperity contact force", 1.0, "N"),
     "friction_power_mean": ("W", "cycle mean of the friction power loss", 1.0, "W"),
     "run_time": ("s", "wall time of the run", 1.0, "s"),
+    "big_end_h_min_min": (
+        "m",
+        "big end (when lubricated): cycle minimum of its minimum film thickness",
+        1e6,
+        "um",
+    ),
+    "big_end_p_max_max": (
+        "Pa",
+        "big end (when lubricated): cycle maximum of its peak film pressure",
+        1e-6,
+        "MPa",
+    ),
+    "big_end_friction_power_mean": (
+        "W",
+        "big end (when lubricated): cycle mean of its friction power",
+        1.0,
+        "W",
+    ),
 }
 MAX_PANELS = 6  # the plot shows the first six varied parameters
 _RESULTS_VARIABLE = {
@@ -59,6 +78,9 @@ _RESULTS_VARIABLE = {
     "p_max_max": ("p_max", np.nanmax),
     "F_asperity_max": ("F_asperity", np.nanmax),
     "friction_power_mean": ("friction_power", None),
+    "big_end_h_min_min": ("big_end_h_min", np.nanmin),
+    "big_end_p_max_max": ("big_end_p_max", np.nanmax),
+    "big_end_friction_power_mean": ("big_end_friction_power", None),
 }  # None: trapezoidal cycle mean
 
 

@@ -32,7 +32,7 @@ from solver.case import load_case
 from solver.dynamics.engine import engine_from_case, simulate_ideal
 from solver.errors import InputError
 from solver.study.simulation import run_case
-from tests.conftest import ROOT
+from tests.conftest import ROOT, run_cli
 
 REFERENCE = ROOT / "cases" / "reference-2000rpm"
 
@@ -244,3 +244,34 @@ def test_bad_big_end_keys_are_one_line_errors(tmp_path, keys, field):
         load_case(case_dir)
     text = str(error.value)
     assert field in text and "\n" not in text
+
+
+@pytest.mark.serial
+def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
+    """``batch`` over a case with a lubricated big end and one with an ideal big end (both small ends
+    short bearings, one cycle): summary.nc's ``big_end_h_min_min``, ``big_end_p_max_max`` and
+    ``big_end_friction_power_mean`` are the results' own cycle minimum, maximum and trapezoidal cycle
+    mean (1e-12), NaN for the ideal big end; the batch record of the lubricated one has them too."""
+    import json
+
+    solver = 'joint = "short-bearing"\nmax_cycles = 1\nstep_deg = 5\n'
+    lubricated = make_case(tmp_path / "a", solver, 'joint = "short-bearing"\n')
+    ideal = make_case(tmp_path / "b", solver, "")
+    proc = run_cli("batch", str(lubricated), str(ideal), "--output", str(tmp_path / "batch"))
+    assert proc.returncode == 0, proc.stderr
+    with (
+        xr.open_dataset(tmp_path / "batch" / "summary.nc") as summary,
+        xr.open_dataset(lubricated / "results" / "results.nc") as ds,
+    ):
+        angle = ds.crank_angle.values
+        expected = {
+            "big_end_h_min_min": np.nanmin(ds.big_end_h_min.values),
+            "big_end_p_max_max": np.nanmax(ds.big_end_p_max.values),
+            "big_end_friction_power_mean": np.trapz(ds.big_end_friction_power.values, angle)
+            / (angle[-1] - angle[0]),
+        }
+        for name, value in expected.items():
+            assert float(summary[name].values[0]) == pytest.approx(value, rel=1e-12), name
+            assert math.isnan(float(summary[name].values[1])), name
+    record = json.loads((tmp_path / "batch" / "batch_status.json").read_text())["cases"][0]
+    assert record["metrics"]["big_end_h_min_min"] == pytest.approx(expected["big_end_h_min_min"], rel=1e-12)
