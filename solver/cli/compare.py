@@ -5,8 +5,9 @@ holding ``results.nc``) or a results file. A run is labelled by its directory's 
 name stored in it (so that a copied ``results.nc`` keeps its case's name). Prints one row per run (or
 one JSON object with ``--json``): the joint, the cycle minimum of h_min, the maxima of p_max, of the
 asperity force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
-film's share of the bearing area (cavitation model beside it). With ``--output PNG`` rank 0 also
-writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
+film's share of the bearing area (cavitation model beside it); for a lubricated big end one more line
+(JSON keys ``big_end_*``: its joint, min h_min, max p_max, mean friction power). With ``--output PNG``
+rank 0 also writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
 cavitated area over the crank angle, one line per run (e.g. the rigid and the elastic small end of the
 same engine, or the Reynolds condition and the mass-conserving film).
 """
@@ -91,6 +92,21 @@ def summary(ds: xr.Dataset, label: str) -> dict:
             if "cavitated_area_ratio" in ds
             else float("nan")
         ),
+        **_big_end(ds, angle),
+    }
+
+
+def _big_end(ds: xr.Dataset, angle: np.ndarray) -> dict:
+    """The big end's joint and, when lubricated, its metrics (NaN when ideal or not in the file)."""
+
+    def values(name: str) -> np.ndarray:
+        return ds[name].values if name in ds else np.full(angle.size, np.nan)
+
+    return {
+        "big_end_joint": str(ds.attrs.get("big_end.joint", "ideal")),
+        "big_end_h_min_min_m": nan_reduce(np.nanmin, values("big_end_h_min")),
+        "big_end_p_max_max_Pa": nan_reduce(np.nanmax, values("big_end_p_max")),
+        "big_end_friction_power_mean_W": cycle_mean(values("big_end_friction_power"), angle),
     }
 
 
@@ -150,6 +166,14 @@ def run(args: argparse.Namespace, comm) -> int:
                         f"{row['deformation_max_m'] * 1e6:>5.2f} um {row['cavitation']:>10} "
                         f"{row['cavitated_area_mean']:>9.3f}"
                     )
+                for row in rows:
+                    if row["big_end_joint"] != "ideal":
+                        print(
+                            f"{row['run']:<28} big end {row['big_end_joint']}: min h_min "
+                            f"{row['big_end_h_min_min_m'] * 1e6:.3f} um, max p_max "
+                            f"{row['big_end_p_max_max_Pa'] / 1e6:.1f} MPa, friction "
+                            f"{row['big_end_friction_power_mean_W']:.3f} W"
+                        )
                 if args.output is not None:
                     print(f"plot: {args.output}")
     finally:

@@ -275,3 +275,17 @@ def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
             assert math.isnan(float(summary[name].values[1])), name
     record = json.loads((tmp_path / "batch" / "batch_status.json").read_text())["cases"][0]
     assert record["metrics"]["big_end_h_min_min"] == pytest.approx(expected["big_end_h_min_min"], rel=1e-12)
+    # compare: the same three numbers per run, and the big end's line in its table
+    proc = run_cli("compare", str(lubricated), str(ideal), "--json")
+    assert proc.returncode == 0, proc.stderr
+    rows = json.loads(proc.stdout)["runs"]
+    assert [r["big_end_joint"] for r in rows] == ["short-bearing", "ideal"]
+    for key, name in (
+        ("big_end_h_min_min_m", "big_end_h_min_min"),
+        ("big_end_p_max_max_Pa", "big_end_p_max_max"),
+        ("big_end_friction_power_mean_W", "big_end_friction_power_mean"),
+    ):
+        assert rows[0][key] == pytest.approx(expected[name], rel=1e-12), key
+        assert rows[1][key] is None or math.isnan(rows[1][key]), key
+    table = run_cli("compare", str(lubricated), str(ideal)).stdout
+    assert table.count("big end short-bearing: min h_min") == 1
