@@ -119,6 +119,15 @@ def check_film(
         raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
 
 
+def reference_speed(wedge: float, sliding: float, squeeze: float) -> float:
+    """The film scaling's reference angular speed [rad/s]: the first of |wedge| (omega_j + omega_b),
+    |sliding| (omega_j - omega_b) and |squeeze| (|de/dt| / c) that is not 0, else |squeeze|."""
+    for value in (wedge, sliding):
+        if value != 0:
+            return abs(value)
+    return abs(squeeze)
+
+
 def default_inlet(*, cavitation: str, bushing: str, supply: bool, quasi_static: bool) -> str:
     """The inlet without asking: "max-gap" (the classic tables' assumption) where ``check_film`` allows
     it for these choices, else "none"."""

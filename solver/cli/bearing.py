@@ -34,6 +34,7 @@ from solver.film_rules import (
     WIDTH_RATIO_RANGE,
     check_geometry,
     default_inlet,
+    reference_speed,
 )
 from solver.study import io
 
@@ -807,7 +808,7 @@ def run(args, comm) -> int:
     wedge = omega + omega_b  # twice the mean surface speed / R, relative to the fixed load line
     sliding = omega - omega_b  # the journal's speed relative to the bushing (Couette friction)
     rate = args.eccentricity_rate
-    omega_ref = abs(wedge) if wedge != 0 else abs(sliding) if sliding != 0 else abs(rate)
+    omega_ref = reference_speed(wedge, sliding, rate)
     start = time.perf_counter()
     spec = film_spec(args, bearing, surface, omega_ref, sliding, quasi_static=True)
     spec.check(ranks=comm.size)

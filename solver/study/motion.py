@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from solver import film_rules
 from solver.errors import FilmNotConverged, InputError
 
 log = logging.getLogger(__name__)
@@ -175,17 +176,14 @@ def check_reach(motion: Motion, clearance: float, limit: float, path: Path | str
 
 
 def reference_speed(motion: Motion, clearance: float) -> float:
-    """The film scaling's reference angular speed [rad/s], as the bearing command takes it: the largest
-    wedge |omega_j + omega_b|, else sliding |omega_j - omega_b|, else squeeze |de/dt| / c; 1 if nothing
-    moves."""
-    for value in (
-        np.max(np.abs(motion.omega_journal + motion.omega_bushing)),
-        np.max(np.abs(motion.omega_journal - motion.omega_bushing)),
-        np.max(np.hypot(motion.ecc_rate[:, 0], motion.ecc_rate[:, 1])) / clearance,
-    ):
-        if value > 0:
-            return float(value)
-    return 1.0
+    """The film scaling's reference angular speed [rad/s], by the bearing command's rule
+    (solver.film_rules.reference_speed) over the rows' largest speeds; 1 if nothing moves."""
+    speed = film_rules.reference_speed(
+        float(np.max(np.abs(motion.omega_journal + motion.omega_bushing))),
+        float(np.max(np.abs(motion.omega_journal - motion.omega_bushing))),
+        float(np.max(np.hypot(motion.ecc_rate[:, 0], motion.ecc_rate[:, 1]))) / clearance,
+    )
+    return speed if speed > 0 else 1.0
 
 
 #: the film's outputs per row: name -> (units, long_name, FilmResult -> value)
