@@ -101,6 +101,7 @@ def run(args, comm) -> int:
             "big_end_h_min_min_m": summary.big_end_h_min_min,
             "big_end_friction_power_mean_W": summary.big_end_friction_power_mean,
             "cycles": summary.cycles,
+            "start_cycles": summary.start_cycles,
             "periodic": summary.periodic,
             "wall_time_s": summary.wall_time,
             "wall_time_last_invocation_s": summary.wall_time_last_invocation,
