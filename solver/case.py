@@ -939,7 +939,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         0.0,
         1.0,
         doc="joint mixed-fem: the run first integrates the case on a coarser film of this element size / "
-        "pin radius until periodic, then maps its end state (pin, film fraction, deformation) onto the "
+        "pin radius until its min h_min is periodic, then maps its end state (pin, film fraction, "
+        "deformation) onto the "
         "case's film and goes on there (a cheaper start: docs/models.md); larger than the case's own "
         "element size; absent: the case's film from the first cycle; one rank per case",
     ),

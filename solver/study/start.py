@@ -3,7 +3,8 @@
 A run from the centred pin in a full film spends its first cycles carrying the start to the periodic
 state: the oil the film holds, the pin's place under the loaded strokes, the bushing's deformation.
 With ``solver.start_mesh_size`` the run first integrates the same case on a film of that (larger)
-element size until periodic (the case's own tests, ``max_cycles`` and ``periodic_acceleration``), then
+element size until its min h_min is periodic (the case's ``periodic_tolerance``, ``max_cycles`` and
+``periodic_acceleration``; its friction is left to the case's film, whose test has it), then
 maps that run's end state onto the case's film and integrates the case's film from there: the
 mechanism's coordinates and velocities as they are, the film's committed history (film fraction,
 deformation) interpolated node by node (solver.film.model.Film.state_from). The periodic test then
@@ -40,8 +41,14 @@ class StartRecord:
 
 
 def coarser_case(case):
-    """The case with the start's film: ``solver.mesh_size = start_mesh_size`` and no start of its own."""
-    solver = dataclasses.replace(case.solver, mesh_size=case.solver.start_mesh_size, start_mesh_size=None)
+    """The case with the start's film: ``solver.mesh_size = start_mesh_size``, no start of its own and
+    no friction test (its min h_min's test decides: the case's film tests its own friction)."""
+    solver = dataclasses.replace(
+        case.solver,
+        mesh_size=case.solver.start_mesh_size,
+        start_mesh_size=None,
+        periodic_friction_tolerance=None,
+    )
     return dataclasses.replace(case, solver=solver)
 
 
