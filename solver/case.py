@@ -1379,7 +1379,7 @@ def _check_start_mesh(solver: Solver, small_end: SmallEnd) -> None:
     )
     if not solver.start_mesh_size > own:
         raise out_of_range(
-            "solver.start_mesh_size", f"{solver.start_mesh_size:g}", f"(solver.mesh_size = {own:g}, 1]"
+            "solver.start_mesh_size", f"{solver.start_mesh_size:g}", f"(solver.mesh_size = {own:g}, 1)"
         )
     if solver.joint != "mixed-fem":
         raise InputError(

@@ -94,7 +94,7 @@ def test_the_layer_deformation_is_carried_as_a_second_nodal_part():
 @pytest.mark.serial
 def test_bad_start_mesh_sizes_are_one_line_errors(tmp_path):
     case = coarse_jfo_case(tmp_path / "finer", "start_mesh_size = 0.1\n")
-    with pytest.raises(InputError, match=r"solver.start_mesh_size = 0.1 .*\(solver.mesh_size = 0.2, 1\]"):
+    with pytest.raises(InputError, match=r"solver.start_mesh_size = 0.1 .*\(solver.mesh_size = 0.2, 1\)"):
         load_case(case)
     case = coarse_jfo_case(tmp_path / "short", 'start_mesh_size = 0.4\njoint = "short-bearing"\n')
     with pytest.raises(InputError, match=r"solver.start_mesh_size is for the finite-element film"):
