@@ -108,7 +108,9 @@ def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
       pin rather than cancel.
     - With both accounted for by the closed forms (module docstring, with the outputs' e and F), the pin's
       speed is the speed that balances them: rms difference within 1 % of rms(omega_rod / 2) (measured
-      0.63 %; the rest is the pin's inertia, the films' quadrature on 1440 points and the output sampling)."""
+      0.63 %; the rest is the pin's inertia, the films' quadrature on 1440 points and the output sampling).
+    - ``run --json`` and ``compare --json`` give the pin's mean speed and the bosses' metrics as the results'
+      own reductions (1e-12)."""
     case_dir = make_case(
         tmp_path / "equal",
         "max_cycles = 1\nstep_deg = 2\n",
@@ -158,6 +160,18 @@ def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
     balance = (C_small * rod + pressure(e_small, F_small) + pressure(e_boss, F_boss)) / (C_small + C_boss)
     print(f"closed-form balance: rms {rms((w - balance)[later]) / rms(half):.4f}")
     assert rms((w - balance)[later]) < 0.01 * rms(half)
+    # compare: the pin's mean speed and the bosses' film, as the results' own reductions
+    proc = run_cli("compare", str(case_dir), "--json")
+    assert proc.returncode == 0, proc.stderr
+    row = json.loads(proc.stdout)["runs"][0]
+    assert row["pin"] == "floating"
+    assert row["pin_speed_mean_rpm"] == pytest.approx(mean / RPM, rel=1e-12)
+    assert row["pin_boss_h_min_min_m"] == pytest.approx(float(ds.pin_boss_h_min.min()), rel=1e-12)
+    assert row["pin_boss_p_max_max_Pa"] == pytest.approx(float(ds.pin_boss_p_max.max()), rel=1e-12)
+    angle = ds.crank_angle.values
+    friction = np.trapz(ds.pin_boss_friction_power.values, angle) / (angle[-1] - angle[0])
+    assert row["pin_boss_friction_power_mean_W"] == pytest.approx(friction, rel=1e-12)
+    assert run_cli("compare", str(case_dir)).stdout.count("floating pin: mean speed") == 1
 
 
 @pytest.mark.serial
