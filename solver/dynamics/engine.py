@@ -12,11 +12,14 @@ Bodies (coordinates of the centres of mass, solver.dynamics.multibody):
 - rod (1): frame x' from the big end to the small end, origin at the centre of mass, which lies
   ``l_g`` from the big end: big end at ``(-l_g, 0)``, small end at ``(l - l_g, 0)``; phi = rod angle.
 - piston (2): centre of mass at the pin centre, at ``y = a`` (pin offset), no rotation.
+- pin (3), only for a full-floating pin (:class:`FloatingPin`): centre of mass at its axis, free to turn;
+  the piston (2) is then the assembly without the pin, its centre at the bosses' centre.
 
 Joints: main bearing (crank - ground, revolute at the origin), big end (crankpin - rod: an ideal
 revolute, or a clearance joint with the crankpin as journal and the bushing in the rod's big eye),
 small end (pin - rod: an ideal revolute, or a clearance joint with the pin on the piston as journal and
-the bushing in the rod), cylinder (piston - ground, translational along +x at offset a), and the crank
+the bushing in the rod; with a floating pin the journal is the pin body, which the bosses' clearance joint
+holds in the piston), cylinder (piston - ground, translational along +x at offset a), and the crank
 driver ``phi_crank = theta(t)`` (constant speed or a periodic speed trace).
 
 Loads: gravity ``m g`` along -x on every body; gas force ``F_gas = (p_cyl - p_crankcase) pi bore^2/4``
