@@ -283,3 +283,30 @@ def test_floating_pin_combinations_refused_by_run(tmp_path, sections, options, f
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and field in lines[0] and "Traceback" not in proc.stderr
+
+
+@pytest.mark.serial
+def test_batch_summary_carries_the_pins_metrics(tmp_path):
+    """``batch`` over a floating-pin case and a fixed-pin one (short-bearing small ends, inertia loads, one
+    cycle at 5 deg): summary.nc's ``pin_boss_h_min_min`` and ``pin_speed_mean`` are the results' own cycle
+    minimum and turn over the cycle's duration (1e-12), NaN for the fixed pin; the batch record has them
+    too."""
+    solver = "max_cycles = 1\nstep_deg = 5\n"
+    floating = make_case(tmp_path / "a", solver, '[gas]\nmodel = "none"\n[small_end]\npin = "floating"\n')
+    fixed = make_case(tmp_path / "b", solver, '[gas]\nmodel = "none"\n')
+    proc = run_cli("batch", str(floating), str(fixed), "--output", str(tmp_path / "batch"))
+    assert proc.returncode == 0, proc.stderr
+    with (
+        xr.open_dataset(tmp_path / "batch" / "summary.nc") as summary,
+        xr.open_dataset(floating / "results" / "results.nc") as ds,
+    ):
+        t, angle = ds.time.values, ds.pin_angle.values
+        expected = {
+            "pin_boss_h_min_min": float(np.nanmin(ds.pin_boss_h_min.values)),
+            "pin_speed_mean": float((angle[-1] - angle[0]) / (t[-1] - t[0])),
+        }
+        for name, value in expected.items():
+            assert float(summary[name].values[0]) == pytest.approx(value, rel=1e-12), name
+            assert math.isnan(float(summary[name].values[1])), name
+    record = json.loads((tmp_path / "batch" / "batch_status.json").read_text())["cases"][0]
+    assert record["metrics"]["pin_speed_mean"] == pytest.approx(expected["pin_speed_mean"], rel=1e-12)
