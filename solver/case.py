@@ -14,7 +14,8 @@ that names the field as ``section.key`` and its allowed range.
 
 Sections: ``[engine]``, ``[gas]`` (the mechanism and its loads), ``[small_end]``, ``[oil]``,
 ``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a short-bearing
-clearance joint in the same oil) and ``[solver]`` (the coupled run: joint model, mesh,
+clearance joint in the same oil), ``[pin_boss]`` (the floating pin's film in the piston bosses,
+``small_end.pin = "floating"``) and ``[solver]`` (the coupled run: joint model, mesh,
 tolerances, cycles, outputs). Unknown sections and keys are errors.
 """
 
@@ -34,6 +35,7 @@ from solver.film_rules import (
     BIG_END_LENGTHS,
     CASE_LENGTHS,
     CLEARANCE_RATIO_RANGE,
+    PIN_BOSS_LENGTHS,
     RADIUS_RANGE,
     WIDTH_RATIO_RANGE,
     check_film,
@@ -46,6 +48,10 @@ INLETS = ("none", "max-gap", "hole", "axial-groove", "circumferential-groove")
 
 #: the big end's models (``big_end.joint``)
 BIG_END_JOINTS = ("ideal", "short-bearing")
+
+#: the piston pin (``small_end.pin``) and the floating pin's film in the piston bosses (``pin_boss.joint``)
+PINS = ("fixed", "floating")
+PIN_BOSS_JOINTS = ("short-bearing", "ideal")
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -528,6 +534,39 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="fe, compliance_modes = 0: the largest truncation error of the displacement under the reference "
         "loads (uniform, 30 deg bumps; max norm, relative)",
     ),
+    FieldSpec(
+        "small_end",
+        "pin",
+        "pin",
+        str,
+        "fixed",
+        choices=PINS,
+        doc="the piston pin: fixed in the piston (the small end's journal), or floating, a body of its own "
+        "that turns in the small end's film and in the piston bosses' film ([pin_boss]); with floating the "
+        "piston's own mass is engine.piston_mass_kg less small_end.pin_mass_g (docs/models.md)",
+    ),
+    _f(
+        "small_end",
+        "pin_mass_g",
+        "pin_mass",
+        101.0,
+        1e-3,
+        0.0,
+        unit="g",
+        doc="floating pin: the pin's mass, < engine.piston_mass_kg (the default: a steel tube 21 mm outside, "
+        "12 mm bore, 55 mm long, 7850 kg/m^3)",
+    ),
+    _f(
+        "small_end",
+        "pin_inertia_kg_mm2",
+        "pin_inertia",
+        7.36,
+        1e-6,
+        0.0,
+        unit="kg mm^2",
+        doc="floating pin: the pin's polar moment of inertia about its axis (the default: the same tube, "
+        "m (R_o^2 + R_i^2) / 2)",
+    ),
     # [big_end]
     FieldSpec(
         "big_end",
@@ -569,6 +608,60 @@ FIELDS: tuple[FieldSpec, ...] = (
         unit="um",
         doc=f"big-end radial clearance c; c / R in [{CLEARANCE_RATIO_RANGE[0]:g}, "
         f"{CLEARANCE_RATIO_RANGE[1]:g}]",
+    ),
+    # [pin_boss]
+    FieldSpec(
+        "pin_boss",
+        "joint",
+        "joint",
+        str,
+        "short-bearing",
+        choices=PIN_BOSS_JOINTS,
+        doc="the floating pin in the piston's two bosses (small_end.pin = floating; ignored with a fixed "
+        "pin): Ocvirk short bearing (rigid, smooth, the oil of [oil]); ideal is the fixed pin, refused with "
+        "a floating one (use small_end.pin = fixed)",
+    ),
+    _f(
+        "pin_boss",
+        "radius_mm",
+        "radius",
+        10.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"the pin's radius in the bosses; in [{RADIUS_RANGE[0] * 1e3:g}, {RADIUS_RANGE[1] * 1e3:g}]",
+    ),
+    _f(
+        "pin_boss",
+        "width_mm",
+        "width",
+        30.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc=f"both bosses' total width: in the plane the two symmetric bosses are one film of that width "
+        f"(docs/models.md); width / radius in [{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}]",
+    ),
+    _f(
+        "pin_boss",
+        "clearance_um",
+        "clearance",
+        10.0,
+        1e-6,
+        0.0,
+        unit="um",
+        doc=f"the bosses' radial clearance c; c / radius in [{CLEARANCE_RATIO_RANGE[0]:g}, "
+        f"{CLEARANCE_RATIO_RANGE[1]:g}]",
+    ),
+    _f(
+        "pin_boss",
+        "viscosity_ratio",
+        "viscosity_ratio",
+        1.0,
+        1.0,
+        0.0,
+        doc="the bosses' oil viscosity over the small end's (oil.viscosity_Pa_s or the oil's data): the "
+        "bosses are splash-fed and may run hotter or colder; a large ratio holds the pin in the piston",
     ),
     # [oil]
     _f(
@@ -1036,7 +1129,7 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
 )
 
-SECTIONS = ("engine", "gas", "small_end", "big_end", "oil", "surface", "solver")
+SECTIONS = ("engine", "gas", "small_end", "big_end", "pin_boss", "oil", "surface", "solver")
 
 
 def _specs(section: str) -> tuple[FieldSpec, ...]:
@@ -1168,6 +1261,9 @@ class SmallEnd:
     compliance_tolerance: float = _field("small_end", "compliance_tolerance")
     compliance_grid_theta: int = _field("small_end", "compliance_grid_theta")
     compliance_grid_z: int = _field("small_end", "compliance_grid_z")
+    pin: str = _field("small_end", "pin")  # fixed | floating
+    pin_mass: float = _field("small_end", "pin_mass")  # kg, floating pin
+    pin_inertia: float = _field("small_end", "pin_inertia")  # kg m^2, floating pin
 
     def __post_init__(self) -> None:
         _check_section(self, "small_end")
@@ -1209,6 +1305,21 @@ class BigEnd:
     def lubricated(self) -> bool:
         """A clearance joint rather than an ideal revolute."""
         return self.joint != "ideal"
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class PinBoss:
+    """The floating pin's bearing in the piston's two bosses, as one film of their total width (SI)."""
+
+    joint: str = _field("pin_boss", "joint")  # short-bearing | ideal (the fixed pin)
+    radius: float = _field("pin_boss", "radius")  # m, the pin's
+    width: float = _field("pin_boss", "width")  # m, both bosses together
+    clearance: float = _field("pin_boss", "clearance")  # m, radial
+    viscosity_ratio: float = _field("pin_boss", "viscosity_ratio")  # of the oil's viscosity
+
+    def __post_init__(self) -> None:
+        _check_section(self, "pin_boss")
+        check_geometry(radius=self.radius, width=self.width, clearance=self.clearance, names=PIN_BOSS_LENGTHS)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1328,7 +1439,7 @@ class Case:
         directory: the case directory (relative file names are resolved against it; results go to
             ``directory / "results"``).
         description: free text.
-        engine, gas, small_end, big_end, oil, surface, solver: the sections.
+        engine, gas, small_end, big_end, pin_boss, oil, surface, solver: the sections.
         defaulted: the sections the case file does not have (their defaults are used: all of them
             for an empty file, which is the reference engine); not a parameter of the case.
     """
@@ -1340,6 +1451,7 @@ class Case:
     gas: Gas = dataclasses.field(default_factory=Gas)
     small_end: SmallEnd = dataclasses.field(default_factory=SmallEnd)
     big_end: BigEnd = dataclasses.field(default_factory=BigEnd)
+    pin_boss: PinBoss = dataclasses.field(default_factory=PinBoss)
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
     solver: Solver = dataclasses.field(default_factory=Solver)
@@ -1347,6 +1459,7 @@ class Case:
 
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
+        _check_pin(self)
         # the film's compatibility rules, the same the bearing command and FilmSpec check
         check_film(
             cavitation=self.oil.cavitation,
@@ -1388,6 +1501,25 @@ def _check_start_mesh(solver: Solver, small_end: SmallEnd) -> None:
         )
 
 
+def _check_pin(case: Case) -> None:
+    """A floating pin: lighter than the piston assembly it belongs to, a film in the bosses."""
+    se = case.small_end
+    if se.pin != "floating":
+        return
+    if not se.pin_mass < case.engine.piston_mass:
+        raise out_of_range(
+            "small_end.pin_mass_g",
+            f"{se.pin_mass * 1e3:g}",
+            f"(0, engine.piston_mass_kg = {case.engine.piston_mass * 1e3:g} g): the piston assembly holds "
+            "the pin",
+        )
+    if case.pin_boss.joint == "ideal":
+        raise InputError(
+            'pin_boss.joint = "ideal" is the fixed pin (allowed with small_end.pin = "floating": '
+            "'short-bearing'; or small_end.pin = \"fixed\")"
+        )
+
+
 def _check_supply(oil: Oil, small_end: SmallEnd) -> None:
     """The oil supply (hole or groove, centred on the mid-plane) must fit on the small end's bushing."""
     width = small_end.width * 1e3  # mm
@@ -1418,6 +1550,7 @@ _SECTION_CLASSES = {
     "gas": Gas,
     "small_end": SmallEnd,
     "big_end": BigEnd,
+    "pin_boss": PinBoss,
     "oil": Oil,
     "surface": Surface,
     "solver": Solver,

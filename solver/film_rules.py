@@ -197,6 +197,12 @@ BIG_END_LENGTHS = {
     "width": Length("big_end.width_mm", "mm"),
     "clearance": Length("big_end.clearance_um", "um"),
 }
+#: the floating pin's film in the piston bosses (checked as the big end's)
+PIN_BOSS_LENGTHS = {
+    "radius": Length("pin_boss.radius_mm", "mm"),
+    "width": Length("pin_boss.width_mm", "mm"),
+    "clearance": Length("pin_boss.clearance_um", "um"),
+}
 FLAG_LENGTHS = {
     "radius": Length("--radius", "m", flag=True),
     "width": Length("--width", "m", flag=True),

@@ -118,11 +118,12 @@ def test_the_sections_not_in_the_case_file_are_named(tmp_path):
     assert empty.defaulted == SECTIONS
     assert defaults_note(empty) == (
         "the case file has no section: every default is used, the reference engine ([engine], [gas], "
-        "[small_end], [big_end], [oil], [surface], [solver])"
+        "[small_end], [big_end], [pin_boss], [oil], [surface], [solver])"
     )
     partial = _case(tmp_path, "[engine]\nspeed_rpm = 3000\n[solver]\nstep_deg = 2\n")
     assert defaults_note(partial) == (
-        "sections not in the case file, defaults used: [gas], [small_end], [big_end], [oil], [surface]"
+        "sections not in the case file, defaults used: [gas], [small_end], [big_end], [pin_boss], [oil], "
+        "[surface]"
     )
     assert defaults_note(load_case(ROOT / "cases" / "reference-2000rpm")) is None
     assert re.search("defaulted", repr(empty)) is None  # not a parameter of the case

@@ -6,7 +6,9 @@ name stored in it (so that a copied ``results.nc`` keeps its case's name). Print
 one JSON object with ``--json``): the joint, the cycle minimum of h_min, the maxima of p_max, of the
 asperity force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
 film's share of the bearing area (cavitation model beside it); for a lubricated big end one more line
-(JSON keys ``big_end_*``: its joint, min h_min, max p_max, mean friction power). With ``--output PNG``
+(JSON keys ``big_end_*``: its joint, min h_min, max p_max, mean friction power), for a floating pin one
+more (JSON keys ``pin``, ``pin_speed_mean_rpm`` and ``pin_boss_*``: the bosses' film's min h_min, max p_max,
+mean friction power). With ``--output PNG``
 rank 0 also writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
 cavitated area over the crank angle, one line per run (e.g. the rigid and the elastic small end of the
 same engine, or the Reynolds condition and the mass-conserving film).
@@ -23,7 +25,7 @@ import xarray as xr
 
 from solver.errors import InputError
 from solver.study import io
-from solver.study.results import is_complete, nan_reduce
+from solver.study.results import is_complete, nan_reduce, pin_speed_mean
 from solver.study.thermal import cycle_mean
 
 # (variable, label, scale to the plotted unit)
@@ -93,6 +95,7 @@ def summary(ds: xr.Dataset, label: str) -> dict:
             else float("nan")
         ),
         **_big_end(ds, angle),
+        **_pin(ds, angle),
     }
 
 
@@ -107,6 +110,22 @@ def _big_end(ds: xr.Dataset, angle: np.ndarray) -> dict:
         "big_end_h_min_min_m": nan_reduce(np.nanmin, values("big_end_h_min")),
         "big_end_p_max_max_Pa": nan_reduce(np.nanmax, values("big_end_p_max")),
         "big_end_friction_power_mean_W": cycle_mean(values("big_end_friction_power"), angle),
+    }
+
+
+def _pin(ds: xr.Dataset, angle: np.ndarray) -> dict:
+    """The piston pin (fixed or floating) and, when floating, its mean speed and the bosses' film's
+    metrics (NaN for a fixed pin or a file without them)."""
+
+    def values(name: str) -> np.ndarray:
+        return ds[name].values if name in ds else np.full(angle.size, np.nan)
+
+    return {
+        "pin": str(ds.attrs.get("small_end.pin", "fixed")),
+        "pin_speed_mean_rpm": pin_speed_mean(values("pin_angle"), ds.time.values) * 60 / (2 * np.pi),
+        "pin_boss_h_min_min_m": nan_reduce(np.nanmin, values("pin_boss_h_min")),
+        "pin_boss_p_max_max_Pa": nan_reduce(np.nanmax, values("pin_boss_p_max")),
+        "pin_boss_friction_power_mean_W": cycle_mean(values("pin_boss_friction_power"), angle),
     }
 
 
@@ -173,6 +192,14 @@ def run(args: argparse.Namespace, comm) -> int:
                             f"{row['big_end_h_min_min_m'] * 1e6:.3f} um, max p_max "
                             f"{row['big_end_p_max_max_Pa'] / 1e6:.1f} MPa, friction "
                             f"{row['big_end_friction_power_mean_W']:.3f} W"
+                        )
+                for row in rows:
+                    if row["pin"] == "floating":
+                        print(
+                            f"{row['run']:<28} floating pin: mean speed {row['pin_speed_mean_rpm']:.2f} rpm; "
+                            f"bosses min h_min {row['pin_boss_h_min_min_m'] * 1e6:.3f} um, max p_max "
+                            f"{row['pin_boss_p_max_max_Pa'] / 1e6:.1f} MPa, friction "
+                            f"{row['pin_boss_friction_power_mean_W']:.4f} W"
                         )
                 if args.output is not None:
                     print(f"plot: {args.output}")

@@ -39,6 +39,8 @@ _SECTIONS = {
     "gas": "`[gas]`: the cylinder pressure",
     "small_end": "`[small_end]`: the lubricated joint's geometry and bushing",
     "big_end": "`[big_end]`: the big end (crankpin in the rod's big eye): ideal, or a clearance joint",
+    "pin_boss": "`[pin_boss]`: the floating pin's film in the piston's two bosses "
+    '(`small_end.pin = "floating"`)',
     "oil": "`[oil]`: the oil, its temperature, cavitation and supply",
     "surface": "`[surface]`: roughness, asperity contact and the dry joint",
     "solver": "`[solver]`: joint model, mesh, tolerances, cycles and outputs",

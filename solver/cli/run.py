@@ -100,6 +100,8 @@ def run(args, comm) -> int:
             "friction_power_mean_W": summary.friction_power_mean,
             "big_end_h_min_min_m": summary.big_end_h_min_min,
             "big_end_friction_power_mean_W": summary.big_end_friction_power_mean,
+            "pin_boss_h_min_min_m": summary.pin_boss_h_min_min,
+            "pin_speed_mean_rpm": summary.pin_speed_mean / (2 * math.pi / 60),
             "cycles": summary.cycles,
             "start_cycles": summary.start_cycles,
             "periodic": summary.periodic,

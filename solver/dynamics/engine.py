@@ -12,11 +12,14 @@ Bodies (coordinates of the centres of mass, solver.dynamics.multibody):
 - rod (1): frame x' from the big end to the small end, origin at the centre of mass, which lies
   ``l_g`` from the big end: big end at ``(-l_g, 0)``, small end at ``(l - l_g, 0)``; phi = rod angle.
 - piston (2): centre of mass at the pin centre, at ``y = a`` (pin offset), no rotation.
+- pin (3), only for a full-floating pin (:class:`FloatingPin`): centre of mass at its axis, free to turn;
+  the piston (2) is then the assembly without the pin, its centre at the bosses' centre.
 
 Joints: main bearing (crank - ground, revolute at the origin), big end (crankpin - rod: an ideal
 revolute, or a clearance joint with the crankpin as journal and the bushing in the rod's big eye),
 small end (pin - rod: an ideal revolute, or a clearance joint with the pin on the piston as journal and
-the bushing in the rod), cylinder (piston - ground, translational along +x at offset a), and the crank
+the bushing in the rod; with a floating pin the journal is the pin body, which the bosses' clearance joint
+holds in the piston), cylinder (piston - ground, translational along +x at offset a), and the crank
 driver ``phi_crank = theta(t)`` (constant speed or a periodic speed trace).
 
 Loads: gravity ``m g`` along -x on every body; gas force ``F_gas = (p_cyl - p_crankcase) pi bore^2/4``
@@ -73,6 +76,22 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 CYCLE = gas_model.CYCLE  # rad, 720 deg
 
 CRANK, ROD, PISTON = 0, 1, 2  # body indices
+PIN = 3  # the floating pin's body index (only with a floating pin)
+
+
+@dataclasses.dataclass(frozen=True)
+class FloatingPin:
+    """A full-floating piston pin (DESIGN 9): a body of its own between the rod's small end and the piston.
+
+    Attributes:
+        mass: kg, the pin's (the piston body keeps ``piston_mass - mass``).
+        inertia: kg m^2, its polar moment of inertia about its axis.
+        boss: the clearance-joint law of the pin in the piston's bosses (journal = pin, bushing = piston).
+    """
+
+    mass: float
+    inertia: float
+    boss: ClearanceJoint
 
 
 @dataclasses.dataclass(frozen=True)
@@ -315,28 +334,45 @@ class EngineMechanism:
             when ideal), ``small_end`` (only when ideal), ``cylinder``, ``crank_driver``.
         small_end: the small end's clearance-joint force element, or ``None`` for an ideal small end.
         big_end: the big end's clearance-joint force element, or ``None`` for an ideal big end.
+        pin_boss: the floating pin's film in the piston bosses (journal = pin, body 3; bushing = piston),
+            or ``None`` for a fixed pin.
     """
 
     engine: EngineModel
     mechanism: Mechanism
     small_end: ClearanceJointElement | None
     big_end: ClearanceJointElement | None = None
+    pin_boss: ClearanceJointElement | None = None
+
+    @property
+    def floating_pin(self) -> bool:
+        """The pin is a body of its own (index ``PIN``)."""
+        return self.pin_boss is not None
 
     @property
     def clearance_joints(self) -> dict[str, ClearanceJointElement]:
-        """The clearance joints by name (``small_end``, ``big_end``), the ideal ones left out."""
+        """The clearance joints by name (``small_end``, ``big_end``, ``pin_boss``), ideal ones left out."""
         return {
             name: element
-            for name, element in (("small_end", self.small_end), ("big_end", self.big_end))
+            for name, element in (
+                ("small_end", self.small_end),
+                ("big_end", self.big_end),
+                ("pin_boss", self.pin_boss),
+            )
             if element is not None
         }
 
     def initial_state(self, theta: float = 0.0) -> tuple[float, np.ndarray, np.ndarray]:
-        """(t, q, qd) at crank angle theta, assembled exactly (pins centred, no relative motion)."""
+        """(t, q, qd) at crank angle theta, assembled exactly (pins centred, no relative motion; a floating
+        pin at the piston's centre, angle 0, not turning)."""
         ideal = self if not self.clearance_joints else build_mechanism(self.engine)
         t = float(self.engine.crank_motion.time(theta))
         q = project_positions(ideal.mechanism, _configuration_guess(self.engine, theta), t, tolerance=1e-14)
         qd = project_velocities(ideal.mechanism, q, np.zeros_like(q), t)
+        if self.floating_pin:
+            piston = slice(3 * PISTON, 3 * PISTON + 2)
+            q = np.concatenate([q, q[piston], [0.0]])
+            qd = np.concatenate([qd, qd[piston], [0.0]])
         return t, q, qd
 
 
@@ -351,7 +387,10 @@ def _configuration_guess(engine: EngineModel, theta: float) -> np.ndarray:
 
 
 def build_mechanism(
-    engine: EngineModel, small_end: ClearanceJoint | None = None, big_end: ClearanceJoint | None = None
+    engine: EngineModel,
+    small_end: ClearanceJoint | None = None,
+    big_end: ClearanceJoint | None = None,
+    pin: FloatingPin | None = None,
 ) -> EngineMechanism:
     """The crank-rod-piston mechanism with ideal small and big ends, or clearance joints there.
 
@@ -368,33 +407,54 @@ def build_mechanism(
             the journal = crankpin centre on the crank (body 0, point (r, 0)) and the bushing centre in
             the rod at ``(-l_g, 0)`` (body 1): forces and kinematics in the rod (bushing) frame, the
             relative speed ``omega_crank - omega_rod``.
+        pin: ``None`` for the pin fixed in the piston; a :class:`FloatingPin`: the pin is body 3 (mass
+            and inertia its own, the piston's mass ``piston_mass - pin.mass``), the small end (which must
+            then be a clearance joint) has the pin as journal (relative speed ``omega_pin - omega_rod``)
+            and the boss film ``pin.boss`` joins the pin (journal) to the piston (bushing, at its centre;
+            relative speed ``omega_pin``). The fixed pin's bodies, constraints and their order are those of
+            the mechanism without a floating pin.
 
     Returns:
         The :class:`EngineMechanism`.
     """
     r, l, a, l_g = engine.crank_radius, engine.rod_length, engine.pin_offset, engine.rod_cg_from_big_end
+    if pin is not None and small_end is None:
+        raise InputError(
+            "a floating pin turns in the small end's film: the small end must be a clearance joint"
+        )
     bodies = (
         Body("crank", engine.crank_mass, engine.crank_inertia),
         Body("rod", engine.rod_mass, engine.rod_inertia),
-        Body("piston", engine.piston_mass, 0.0),  # its rotation is fixed by the cylinder joint
+        # its rotation is fixed by the cylinder joint
+        Body("piston", engine.piston_mass if pin is None else engine.piston_mass - pin.mass, 0.0),
     )
+    if pin is not None:
+        if not 0.0 < pin.mass < engine.piston_mass:
+            raise out_of_range(
+                "pin mass", f"{pin.mass:g} kg", f"(0, piston_mass = {engine.piston_mass:g} kg)"
+            )
+        bodies += (Body("pin", pin.mass, pin.inertia),)
     constraints = [
         Revolute(CRANK, (0.0, 0.0), None, (0.0, 0.0), name="main_bearing"),
         Translational(PISTON, (0.0, 0.0), (1.0, 0.0), None, (0.0, 0.0), offset=a, angle=0.0, name="cylinder"),
         Driver(CRANK, "phi", engine.crank_motion.motion, name="crank_driver"),
     ]
     forces = []
-    element = big_element = None
+    element = big_element = boss_element = None
     if small_end is None:
         constraints.insert(1, Revolute(PISTON, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end"))
     else:
-        element = ClearanceJointElement(small_end, PISTON, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end")
+        journal = PISTON if pin is None else PIN
+        element = ClearanceJointElement(small_end, journal, (0.0, 0.0), ROD, (l - l_g, 0.0), name="small_end")
         forces.append(element)
     if big_end is None:
         constraints.insert(1, Revolute(CRANK, (r, 0.0), ROD, (-l_g, 0.0), name="big_end"))
     else:
         big_element = ClearanceJointElement(big_end, CRANK, (r, 0.0), ROD, (-l_g, 0.0), name="big_end")
         forces.append(big_element)
+    if pin is not None:
+        boss_element = ClearanceJointElement(pin.boss, PIN, (0.0, 0.0), PISTON, (0.0, 0.0), name="pin_boss")
+        forces.append(boss_element)
     if engine.gravity:
         forces.append(Gravity((-engine.gravity, 0.0)))
 
@@ -408,7 +468,9 @@ def build_mechanism(
 
     # the gas force acts on the cylinder axis (y = 0), i.e. at (0, -a) in the piston frame
     forces.append(AppliedForce(PISTON, (0.0, -a), gas_load, gas_load_jacobian))
-    return EngineMechanism(engine, Mechanism(bodies, tuple(constraints), tuple(forces)), element, big_element)
+    return EngineMechanism(
+        engine, Mechanism(bodies, tuple(constraints), tuple(forces)), element, big_element, boss_element
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -553,3 +553,20 @@ def big_end_joint_from_case(case: Case) -> ClearanceJoint | None:
             radius=be.radius, width=be.width, clearance=be.clearance, viscosity=case.oil.viscosity
         )
     raise InputError(f"big_end.joint = {be.joint!r} is out of range (allowed: 'ideal', 'short-bearing')")
+
+
+def pin_boss_joint_from_case(case: Case) -> ClearanceJoint | None:
+    """The floating pin's film in the piston bosses (``pin_boss``): ``None`` for a fixed pin, else Ocvirk's
+    short bearing of the pin in one boss film of the bosses' total width, in the oil of ``[oil]`` times
+    ``pin_boss.viscosity_ratio``."""
+    if case.small_end.pin != "floating":
+        return None
+    pb = case.pin_boss
+    if pb.joint == "short-bearing":
+        return ShortBearingJoint(
+            radius=pb.radius,
+            width=pb.width,
+            clearance=pb.clearance,
+            viscosity=case.oil.viscosity * pb.viscosity_ratio,
+        )
+    raise InputError(f"pin_boss.joint = {pb.joint!r} is out of range (allowed: 'short-bearing')")

@@ -255,6 +255,8 @@ def _metrics(summary: Any) -> dict[str, Any]:
         "heat_carried",
         "big_end_h_min_min",
         "big_end_friction_power_mean",
+        "pin_boss_h_min_min",
+        "pin_speed_mean",
     ):
         value = getattr(summary, name, None)
         if isinstance(value, (bool, np.bool_)):

@@ -106,7 +106,13 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     times[0] = t0
     audit = EnergyAudit(run.em, engine.gravity)
     outputs = StateOutputs(
-        run.em, engine, run.case.small_end.clearance, run.omega, audit, run.case.big_end.clearance
+        run.em,
+        engine,
+        run.case.small_end.clearance,
+        run.omega,
+        audit,
+        run.case.big_end.clearance,
+        run.case.pin_boss.clearance,
     )
     prefix = "" if run.lead == "small_end" else "big_end_"
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states

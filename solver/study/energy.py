@@ -2,8 +2,8 @@
 
 Per output state: input power (crank + gas + gravity), mechanical energy, and the power dissipated in the
 joint ``D = -(F' . de'/dt + T_j omega_rel + omega_b (T_j + T_b + e' x F'))`` (the last term vanishes when the
-film's moment balance holds), summed over the clearance joints (small end, big end). The audit
-(``ENERGY_COLUMNS``, cumulative over the cycle) closes ``input_work - change of mechanical energy =
+film's moment balance holds), summed over the clearance joints (small end, big end, a floating pin's bosses).
+The audit (``ENERGY_COLUMNS``, cumulative over the cycle) closes ``input_work - change of mechanical energy =
 dissipated_energy - drift_work`` to the integration's accuracy (measured 5e-5 to 1.5e-3 of the dissipated
 energy at the default resolutions, 7e-3 on a coarse JFO run): the dissipation and the drift's work integrated
 along the integrator's stages (:meth:`EnergyAudit.stage_powers`), the driver's work from the crank's
@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from solver.dynamics.engine import CRANK, ROD
+from solver.dynamics.engine import CRANK, PIN, ROD
 
 #: The energy audit of a cycle (results.nc, J, cumulative from its start): the input work (crank driver
 #: from its generalized momentum, and gas), and, integrated along the integrator's stages, the energy
@@ -54,11 +54,11 @@ def input_work(columns: dict[str, np.ndarray]) -> np.ndarray:
     return driver + gas
 
 
-def joint_powers(kin, forces, qd) -> tuple[float, float, float]:
-    """(squeeze, friction, dissipated) power of a clearance joint's forces at a state [W] (its bushing
-    in the rod: the small end's or the big end's)."""
-    F_b = np.asarray(forces.force)  # bushing on pin, rod frame
-    omega_b = float(qd[3 * ROD + 2])
+def joint_powers(kin, forces, qd, bushing_body: int | None = ROD) -> tuple[float, float, float]:
+    """(squeeze, friction, dissipated) power of a clearance joint's forces at a state [W]; its bushing in
+    ``bushing_body`` (the rod: the small end's or the big end's; the piston: the floating pin's bosses)."""
+    F_b = np.asarray(forces.force)  # bushing on pin, bushing frame
+    omega_b = 0.0 if bushing_body is None else float(qd[3 * bushing_body + 2])
     squeeze = -float(F_b @ kin.ecc_rate)
     friction = -forces.journal_torque * kin.omega_rel
     moment = forces.journal_torque + forces.bushing_torque + float(kin.ecc[0] * F_b[1] - kin.ecc[1] * F_b[0])
@@ -67,11 +67,15 @@ def joint_powers(kin, forces, qd) -> tuple[float, float, float]:
 
 def kept_motion(em, q, t: float) -> np.ndarray:
     """The rows whose velocity a projection prescribes: ``Phi_q`` and, for each clearance joint (small
-    end, big end), ``d(de'/dt)/dqd`` (its eccentricity rate, kept), shape (n_constraints [+ 2 per
-    clearance joint], n_coordinates)."""
+    end, big end, the floating pin's bosses), ``d(de'/dt)/dqd`` (its eccentricity rate, kept), and with a
+    floating pin its angular speed (kept), shape (n_coordinates, n_coordinates)."""
     rows = [em.mechanism.jacobian(q, t)]
     for element in em.clearance_joints.values():
         rows.append(element.kinematics(q, np.zeros_like(q)).dz_dqd[2:4])
+    if em.floating_pin:
+        row = np.zeros((1, q.size))
+        row[0, 3 * PIN + 2] = 1.0
+        rows.append(row)
     return np.vstack(rows)
 
 
@@ -152,10 +156,10 @@ class EnergyAudit:
         if not np.all(np.isfinite(qdd)):
             return np.full(len(STAGE_COLUMNS), math.nan)
         dissipated = 0.0
-        for element in self.em.clearance_joints.values():  # (both bushings are in the rod)
+        for element in self.em.clearance_joints.values():
             kin = element.kinematics(q, qd)
             forces = element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
-            dissipated += joint_powers(kin, forces, qd)[2]
+            dissipated += joint_powers(kin, forces, qd, element.bushing_body)[2]
         residual = mech.jacobian(q, t) @ qd + mech.phi_t(q, t)
         return np.array([dissipated, -float(lam @ residual)])
 

@@ -3,7 +3,8 @@
 At each output crank angle (step ``solver.step_deg``): the mechanism's (piston motion, rod angle, gas force
 and cylinder pressure, crank torque, the big end's force on the rod), each clearance joint's kinematics,
 forces and powers (pin force on the rod, eccentricity in the rod frame, friction torque and power, squeeze and
-dissipated power; the big end's prefixed ``big_end_``), the joint's own variables (each joint reports them:
+dissipated power; the big end's prefixed ``big_end_``, a floating pin's bosses' ``pin_boss_``; the floating
+pin's angle, speed and the torques on it), the joint's own variables (each joint reports them:
 ``joint.outputs``, the names in its ``OUTPUTS``; e.g. a film's h_min, p_max, film and asperity loads, flows),
 and the energy bookkeeping (solver.study.energy). A variable no one reports stays NaN, the default of every
 STATE_VARIABLES entry.
@@ -15,7 +16,7 @@ import math
 
 import numpy as np
 
-from solver.dynamics.engine import CRANK, PISTON, ROD
+from solver.dynamics.engine import CRANK, PIN, PISTON, ROD
 from solver.dynamics.multibody import accelerations, joint_reactions, rotation
 from solver.study.energy import EnergyAudit, joint_powers, kept_motion
 from solver.study.results import STATE_VARIABLES
@@ -29,6 +30,7 @@ class StateOutputs:
         engine: its engine model (gas force, cylinder pressure).
         clearance: m, the small end's radial clearance.
         big_end_clearance: m, the big end's (a clearance big end only).
+        pin_boss_clearance: m, the floating pin's bosses' (a floating pin only).
         baumgarte: 1/s, the integration's Baumgarte gains (alpha = beta) for the accelerations.
         audit: the energy terms of the same mechanism.
     """
@@ -41,6 +43,7 @@ class StateOutputs:
         baumgarte: float,
         audit: EnergyAudit,
         big_end_clearance: float = math.nan,
+        pin_boss_clearance: float = math.nan,
     ):
         self.em, self.engine, self.clearance, self.baumgarte, self.audit = (
             em,
@@ -50,6 +53,7 @@ class StateOutputs:
             audit,
         )
         self.big_end_clearance = big_end_clearance
+        self.pin_boss_clearance = pin_boss_clearance
 
     def at(self, t: float, q, qd) -> tuple[dict[str, float], np.ndarray]:
         """Outputs at a state reached with velocities qd, evaluated at consistent velocities (and the
@@ -107,6 +111,15 @@ class StateOutputs:
             out["big_end_force_x"], out["big_end_force_y"] = reactions["big_end"][ROD, :2]
         else:
             out.update(self._clearance_joint(t, q, qd, "big_end"))
+        if em.floating_pin:
+            out.update(self._clearance_joint(t, q, qd, "pin_boss"))
+            out.update(
+                pin_angle=q[3 * PIN + 2],
+                pin_speed=qd[3 * PIN + 2],
+                pin_torque_small_end=out["friction_torque"],
+                pin_torque_boss=out["pin_boss_friction_torque"],
+            )
+            out["pin_torque_net"] = out["pin_torque_small_end"] + out["pin_torque_boss"]
         # energy: input power of the driver, the gas and gravity; mechanical energy
         out["kinetic_energy"], out["potential_energy"] = self.audit.energies(q, qd)
         out["input_power"] = out["crank_torque"] * qd[3 * CRANK + 2] - out["F_gas"] * qd[3 * PISTON]
@@ -115,15 +128,21 @@ class StateOutputs:
     def _clearance_joint(self, t: float, q, qd, name: str = "small_end") -> dict[str, float]:
         """A clearance joint's kinematics, forces and powers, then the variables it reports itself: the
         small end's under their own names, the big end's prefixed ``big_end_`` (its force on the rod as
-        ``big_end_force``); those without a place in STATE_VARIABLES are left out."""
-        element = self.em.small_end if name == "small_end" else self.em.big_end
-        clearance = self.clearance if name == "small_end" else self.big_end_clearance
+        ``big_end_force``), the floating pin's bosses' prefixed ``pin_boss_`` (the pin's force on the
+        piston as ``pin_boss_force``); those without a place in STATE_VARIABLES are left out."""
+        element = self.em.clearance_joints[name]
+        clearance = {
+            "small_end": self.clearance,
+            "big_end": self.big_end_clearance,
+            "pin_boss": self.pin_boss_clearance,
+        }[name]
         kin = element.kinematics(q, qd)
         forces = element.joint.forces(kin.ecc, kin.ecc_rate, kin.omega_rel, t)
-        F_b = np.asarray(forces.force)  # bushing on pin, rod frame
-        A_b = rotation(float(q[3 * ROD + 2]))
-        pin_on_rod = -(A_b @ F_b)
-        squeeze, friction, dissipated = joint_powers(kin, forces, qd)
+        F_b = np.asarray(forces.force)  # bushing on pin, bushing frame
+        body = element.bushing_body  # the rod (small end, big end) or the piston (bosses)
+        A_b = rotation(float(q[3 * body + 2]))
+        pin_on_rod = -(A_b @ F_b)  # of the journal on the bushing, global frame
+        squeeze, friction, dissipated = joint_powers(kin, forces, qd, body)
         values = dict(
             ecc_x=kin.ecc[0],
             ecc_y=kin.ecc[1],
@@ -142,8 +161,8 @@ class StateOutputs:
         values.update(element.joint.outputs(kin.ecc, kin.ecc_rate, kin.omega_rel, t, forces))
         if name == "small_end":
             return values
-        renamed = {"pin_force_x": "big_end_force_x", "pin_force_y": "big_end_force_y"}
-        values = {renamed.get(key, f"big_end_{key}"): value for key, value in values.items()}
+        renamed = {"pin_force_x": f"{name}_force_x", "pin_force_y": f"{name}_force_y"}
+        values = {renamed.get(key, f"{name}_{key}"): value for key, value in values.items()}
         return {key: value for key, value in values.items() if key in STATE_VARIABLES}
 
 

@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from solver.dynamics.engine import CRANK
+from solver.dynamics.engine import CRANK, PIN
 from solver.dynamics.multibody import project_positions, project_velocities
 
 log = logging.getLogger(__name__)
@@ -137,11 +137,12 @@ class CycleMap:
         integrator's angle tolerance, 1e-6 rad, in as 1e-2 clearance)."""
         joints = self.run.em.clearance_joints  # (the small end first, then the big end)
         pins = [(joints[name].kinematics(state.q, state.qd), c) for name, c in self.run.clearances.items()]
+        velocity = [np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega) for pin, c in pins]
+        if self.run.em.floating_pin:  # its angular speed is free too (its angle is not: it may go on turning)
+            velocity.append(np.array([state.qd[3 * PIN + 2] / self.run.omega]))
         parts = {
             "position": np.concatenate([np.asarray(pin.ecc, dtype=float) / c for pin, c in pins]),
-            "velocity": np.concatenate(
-                [np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega) for pin, c in pins]
-            ),
+            "velocity": np.concatenate(velocity),
         }
         if self.film_nodes and state.film:
             x = state.film[-1][1]

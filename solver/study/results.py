@@ -100,8 +100,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
     ),
     "dissipated_energy": (
         "J",
-        "energy dissipated in the clearance joints (small end, and big end when lubricated) since the "
-        "cycle's start, integrated along the integrator's stages",
+        "energy dissipated in the clearance joints (small end, and big end when lubricated, and a floating "
+        "pin's bosses) since the cycle's start, integrated along the integrator's stages",
     ),
     "drift_work": (
         "J",
@@ -130,6 +130,48 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "big_end_squeeze_power": ("W", "big end: power of the joint force on the relative motion, -F . de/dt"),
     "big_end_side_flow": ("m3 s-1", "big end: oil volume flow out of both edges"),
     "big_end_dissipated_power": ("W", "big end: power dissipated in the joint (friction + squeeze)"),
+    # the full-floating pin (small_end.pin = "floating"; NaN for a fixed pin): its rotation, the torques of
+    # both films on it, and its film in the piston bosses ([pin_boss]) as the small end's, in the piston
+    # frame (= the global frame: the piston does not turn)
+    "pin_angle": (
+        "rad",
+        "floating pin: angle of the pin about its axis (counter-clockwise +), from 0 at the run's start",
+    ),
+    "pin_speed": ("rad s-1", "floating pin: angular speed of the pin (counter-clockwise +)"),
+    "pin_torque_small_end": (
+        "N m",
+        "floating pin: the small end's friction torque on the pin about its centre",
+    ),
+    "pin_torque_boss": ("N m", "floating pin: the bosses' friction torque on the pin about its centre"),
+    "pin_torque_net": (
+        "N m",
+        "floating pin: pin_torque_small_end + pin_torque_boss, = pin inertia x angular acceleration",
+    ),
+    "pin_boss_force_x": ("N", "floating pin: force of the pin on the piston bosses, x (film force)"),
+    "pin_boss_force_y": ("N", "floating pin: force of the pin on the piston bosses, y (film force)"),
+    "pin_boss_ecc_x": (
+        "m",
+        "eccentricity of the pin in the bosses (piston frame), x (along the cylinder axis)",
+    ),
+    "pin_boss_ecc_y": ("m", "eccentricity of the pin in the bosses (piston frame), y"),
+    "pin_boss_ecc_rate_x": ("m s-1", "rate of pin_boss_ecc_x"),
+    "pin_boss_ecc_rate_y": ("m s-1", "rate of pin_boss_ecc_y"),
+    "pin_boss_omega_rel": ("rad s-1", "angular speed of the pin relative to the piston (= pin_speed)"),
+    "pin_boss_h_min": ("m", "pin bosses: minimum film thickness"),
+    "pin_boss_h_min_angle": ("degree", "pin bosses: piston-frame angle of the thinnest film, as h_min_angle"),
+    "pin_boss_p_max": ("Pa", "pin bosses: peak film pressure"),
+    "pin_boss_F_hydro": ("N", "pin bosses: film (hydrodynamic) force magnitude"),
+    "pin_boss_friction_torque": ("N m", "pin bosses: friction torque on the pin about its centre"),
+    "pin_boss_friction_power": (
+        "W",
+        "pin bosses: friction power loss, -pin_boss_friction_torque x pin_speed",
+    ),
+    "pin_boss_squeeze_power": (
+        "W",
+        "pin bosses: power of the joint force on the relative motion, -F . de/dt",
+    ),
+    "pin_boss_side_flow": ("m3 s-1", "pin bosses: oil volume flow out of both edges"),
+    "pin_boss_dissipated_power": ("W", "pin bosses: power dissipated in the joint (friction + squeeze)"),
 }
 
 
@@ -207,6 +249,8 @@ class RunSummary:
     wall_time_last_invocation: float = math.nan  # s, of the invocation that finished the run
     big_end_h_min_min: float = math.nan  # m, cycle minimum of the big end's film thickness (NaN: ideal)
     big_end_friction_power_mean: float = math.nan  # W, cycle mean of the big end's friction power
+    pin_boss_h_min_min: float = math.nan  # m, cycle minimum of the floating pin's boss film (NaN: fixed pin)
+    pin_speed_mean: float = math.nan  # rad/s, the floating pin's mean angular speed over the cycle
     start_cycles: int = 0  # cycles on the coarser film before ``cycles`` (solver.study.start; 0: none)
 
 
@@ -305,6 +349,10 @@ def write_results(
         "big_end_h_min_min": nan_reduce(np.nanmin, cols["big_end_h_min"]),
         "big_end_friction_power_mean": cycle_mean(cols["big_end_friction_power"], cols["crank_angle"]),
     }
+    pin = {
+        "pin_boss_h_min_min": nan_reduce(np.nanmin, cols["pin_boss_h_min"]),
+        "pin_speed_mean": pin_speed_mean(cols["pin_angle"], cols["time"]),
+    }
     film = run.oil.record(cols)
     attrs = {**case_attributes(case)}
     attrs.update(
@@ -325,6 +373,7 @@ def write_results(
             "fields": ", ".join(p.name for p in fields),
             **{f"summary.{k}": v for k, v in summary_values.items()},
             **{f"summary.{k}": v for k, v in big_end.items() if math.isfinite(v)},
+            **{f"summary.{k}": v for k, v in pin.items() if math.isfinite(v)},
             **{
                 f"timing.{name}": np.array(
                     [cycle_timing.get(name, np.nan) for cycle_timing in run.timings], dtype=float
@@ -375,6 +424,7 @@ def write_results(
         start_cycles=run.start.cycles if run.start is not None else 0,
         **summary_values,
         **big_end,
+        **pin,
         **{
             name: film[name]
             for name in (
@@ -387,6 +437,15 @@ def write_results(
             )
         },
     )
+
+
+def pin_speed_mean(angle: np.ndarray, time: np.ndarray) -> float:
+    """rad/s, the floating pin's mean angular speed over the cycle: its turn over the cycle's duration
+    (NaN for a fixed pin)."""
+    angle, time = np.asarray(angle, dtype=float), np.asarray(time, dtype=float)
+    if len(angle) < 2 or not (math.isfinite(angle[0]) and math.isfinite(angle[-1])):
+        return math.nan
+    return float((angle[-1] - angle[0]) / (time[-1] - time[0]))
 
 
 def nan_reduce(fn, values: np.ndarray) -> float:
@@ -419,7 +478,8 @@ def results_owner(path: Path) -> tuple[str, str] | None:
 
 def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     """PNG plots: pin orbit, h_min and p_max, joint forces, friction power (over the crank angle); the
-    crankpin's orbit in the big eye (``orbit_big_end.png``) when the big end is a clearance joint."""
+    crankpin's orbit in the big eye (``orbit_big_end.png``) when the big end is a clearance joint, the
+    floating pin's orbit in the bosses (``orbit_pin_boss.png``)."""
     angle = ds.crank_angle.values
     c = float(ds.attrs["small_end.clearance_um"]) * 1e-6
     paths = []
@@ -453,13 +513,23 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
     ax.set_ylabel("e_y / c")
     ax.set_title(f"pin orbit in the bushing: {title}", fontsize=9)
     save(fig, "orbit.png")
-    # the big end's orbit, when it is a clearance joint
-    c_big = float(ds.attrs.get("big_end.clearance_um", math.nan)) * 1e-6
-    bx, by = (
-        ds[n].values / c_big if n in ds else np.full(len(angle), np.nan)
-        for n in ("big_end_ecc_x", "big_end_ecc_y")
-    )
-    if np.any(np.isfinite(bx)):
+    # the big end's orbit, when it is a clearance joint; the floating pin's in the bosses
+    for joint, what, along, file in (
+        (
+            "big_end",
+            "crankpin orbit in the big eye",
+            "along the rod, towards the small end",
+            "orbit_big_end.png",
+        ),
+        ("pin_boss", "pin orbit in the piston bosses", "along the cylinder axis", "orbit_pin_boss.png"),
+    ):
+        c_joint = float(ds.attrs.get(f"{joint}.clearance_um", math.nan)) * 1e-6
+        bx, by = (
+            ds[n].values / c_joint if n in ds else np.full(len(angle), np.nan)
+            for n in (f"{joint}_ecc_x", f"{joint}_ecc_y")
+        )
+        if not np.any(np.isfinite(bx)):
+            continue
         fig, ax = io.subplots(figsize=(5.6, 5.2), constrained_layout=True)
         ax.plot(np.cos(circle), np.sin(circle), color="k", lw=1, label="clearance circle")
         points = ax.scatter(bx, by, c=angle, cmap="twilight", s=6, vmin=0, vmax=720)
@@ -468,10 +538,10 @@ def plot_cycle(ds, out_dir: Path, title: str) -> list[Path]:
         ax.set_aspect("equal")
         ax.set_xlim(-1.1, 1.1)
         ax.set_ylim(-1.1, 1.1)
-        ax.set_xlabel("e_x / c (along the rod, towards the small end)")
+        ax.set_xlabel(f"e_x / c ({along})")
         ax.set_ylabel("e_y / c")
-        ax.set_title(f"crankpin orbit in the big eye: {title}", fontsize=9)
-        save(fig, "orbit_big_end.png")
+        ax.set_title(f"{what}: {title}", fontsize=9)
+        save(fig, file)
     # film thickness and pressure
     fig, (a1, a2) = io.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
     a1.plot(angle, ds.h_min.values * 1e6, color="tab:blue")

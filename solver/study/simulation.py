@@ -2,8 +2,10 @@
 
 The case's engine (solver.dynamics.engine) is built with the small end as a clearance joint whose law is one
 of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``short-bearing``; ``dry``) or as
-an ideal revolute (``ideal``), and the big end as an ideal revolute or a short-bearing clearance joint
-(``big_end.joint``); both joints' forces enter every stage of one integration. The equations of motion are
+an ideal revolute (``ideal``), the big end as an ideal revolute or a short-bearing clearance joint
+(``big_end.joint``), and the piston pin fixed in the piston or floating (``small_end.pin``: a body of its
+own, turning in the small end's film and in the bosses' short-bearing film, ``[pin_boss]``); all the clearance
+joints' forces enter every stage of one integration. The equations of motion are
 integrated with the L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the
 joint's exact Jacobian, so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
 
@@ -38,8 +40,8 @@ import numpy as np
 
 from solver import __version__
 from solver.case import Case, case_attributes, defaults_note, load_case
-from solver.dynamics.engine import build_mechanism, engine_from_case, simulate_ideal
-from solver.dynamics.joint import JOINTS, big_end_joint_from_case, joint_from_case
+from solver.dynamics.engine import FloatingPin, build_mechanism, engine_from_case, simulate_ideal
+from solver.dynamics.joint import JOINTS, big_end_joint_from_case, joint_from_case, pin_boss_joint_from_case
 from solver.errors import InputError
 from solver.study import cycles, fields
 from solver.study import results as results_io
@@ -71,12 +73,18 @@ class Run:
         self.omega = self.engine.crank_motion.speed
         self.joint, self.model = joint_from_case(case, self.engine, comm, joint_name)
         self.big_joint = big_end_joint_from_case(case)  # None: an ideal big end
-        self.em = build_mechanism(self.engine, self.joint, self.big_joint)
+        self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
+        pin = None
+        if self.boss_joint is not None:
+            pin = FloatingPin(case.small_end.pin_mass, case.small_end.pin_inertia, self.boss_joint)
+        self.em = build_mechanism(self.engine, self.joint, self.big_joint, pin)
         # the lubricated joints' radial clearances [m], by name (solver.dynamics.engine.clearance_joints)
-        self.clearances = {
-            name: case.small_end.clearance if name == "small_end" else case.big_end.clearance
-            for name in self.em.clearance_joints
+        clearance = {
+            "small_end": case.small_end.clearance,
+            "big_end": case.big_end.clearance,
+            "pin_boss": case.pin_boss.clearance,
         }
+        self.clearances = {name: clearance[name] for name in self.em.clearance_joints}
         # the joint the periodic test and the progress bar follow: the small end when it is lubricated
         self.lead = "small_end" if self.joint is not None or self.big_joint is None else "big_end"
         c = min(self.clearances.values(), default=case.small_end.clearance)
@@ -161,6 +169,16 @@ def run_case(
             'oil.thermal = "effective" is for the small end\'s film alone (allowed: big_end.joint = "ideal"; '
             f"got {case.big_end.joint!r})"
         )
+    if case.small_end.pin == "floating" and joint == "ideal":
+        raise InputError(
+            'small_end.pin = "floating" turns in the small end\'s film (allowed: joint "mixed-fem", '
+            f'"short-bearing" or "dry"; got {joint!r})'
+        )
+    if case.oil.thermal == "effective" and case.small_end.pin == "floating":
+        raise InputError(
+            'oil.thermal = "effective" is for the small end\'s film alone (allowed: small_end.pin = "fixed"; '
+            'got "floating")'
+        )
     if case.oil.thermal == "effective" and joint not in ("mixed-fem", "short-bearing"):
         raise InputError(
             f'oil.thermal = "effective" needs a film with a side flow (allowed: joint '
@@ -176,6 +194,8 @@ def run_case(
         log.info("case %s: joint %s, solver %s", case.name, joint, __version__)
         if case.big_end.lubricated:
             log.info("big end: joint %s", case.big_end.joint)
+        if case.small_end.pin == "floating":
+            log.info("floating pin: the bosses' joint %s", case.pin_boss.joint)
         if defaults_note(case):
             log.info(defaults_note(case))
         ideal = simulate_ideal(engine_from_case(case), step_deg=math.degrees(case.solver.step))

@@ -11,7 +11,8 @@
   thickness, ``p_max_max`` [Pa] cycle maximum of the peak film pressure, ``F_asperity_max`` [N] cycle
   maximum of the asperity contact force, ``friction_power_mean`` [W] cycle mean of the friction power,
   ``big_end_h_min_min``, ``big_end_p_max_max``, ``big_end_friction_power_mean`` the same of the big end
-  (NaN where it is ideal), ``run_time`` [s] wall time of the run (over every invocation that worked on
+  (NaN where it is ideal), ``pin_boss_h_min_min`` [m] and ``pin_speed_mean`` [rad/s] of a floating pin
+  (NaN for a fixed one), ``run_time`` [s] wall time of the run (over every invocation that worked on
   it: a resumed run's earlier part included), ``run_time_last_invocation`` [s] the part of the
   invocation that finished it; the integers ``cycles`` (int32; 0 without a finished run) and
   ``periodic`` (int8, 1 periodic, 0 not, or no finished run; CF ``flag_values``/``flag_meanings``),
@@ -45,6 +46,7 @@ from solver import __version__
 from solver.case import FIELDS
 from solver.errors import InputError, read_toml_file
 from solver.study import io
+from solver.study.results import pin_speed_mean
 
 #: metric -> (units, long_name, plot scale, plot unit)
 METRICS: dict[str, tuple[str, str, float, str]] = {
@@ -71,6 +73,18 @@ METRICS: dict[str, tuple[str, str, float, str]] = {
         1.0,
         "W",
     ),
+    "pin_boss_h_min_min": (
+        "m",
+        "floating pin: cycle minimum of the bosses' minimum film thickness",
+        1e6,
+        "um",
+    ),
+    "pin_speed_mean": (
+        "rad s-1",
+        "floating pin: mean angular speed over the cycle (its turn over the cycle's duration)",
+        60 / (2 * math.pi),
+        "rpm",
+    ),
 }
 MAX_PANELS = 6  # the plot shows the first six varied parameters
 _RESULTS_VARIABLE = {
@@ -81,6 +95,7 @@ _RESULTS_VARIABLE = {
     "big_end_h_min_min": ("big_end_h_min", np.nanmin),
     "big_end_p_max_max": ("big_end_p_max", np.nanmax),
     "big_end_friction_power_mean": ("big_end_friction_power", None),
+    "pin_boss_h_min_min": ("pin_boss_h_min", np.nanmin),
 }  # None: trapezoidal cycle mean
 
 
@@ -129,6 +144,10 @@ def case_metrics(results: Path) -> dict[str, float]:
                 elif np.all(np.isfinite(values)):
                     angle = np.asarray(ds["crank_angle"].values, dtype=float)
                     out[name] = float(np.trapz(values, angle) / (angle[-1] - angle[0]))
+        if "summary.pin_speed_mean" in attrs:
+            out["pin_speed_mean"] = float(attrs["summary.pin_speed_mean"])
+        elif "pin_angle" in ds:
+            out["pin_speed_mean"] = pin_speed_mean(ds["pin_angle"].values, ds["time"].values)
         out["run_time"] = float(attrs.get("wall_time_s", math.nan))
         # results of a solver before it: one invocation
         out["run_time_last_invocation"] = float(attrs.get("wall_time_last_invocation_s", out["run_time"]))
