@@ -30,6 +30,11 @@ from solver.errors import out_of_range
 
 ROELANDS_PRESSURE = 1.96e8  # Pa, p_r
 ROELANDS_VISCOSITY = 6.31e-5  # Pa s, mu_inf
+#: Pa, the lowest gauge pressure a film can have (absolute vacuum; the cavitation pressure's bound): the
+#: table of q(p) starts there (from 0 its end cubic, extrapolated to the JFO cases' -0.9 bar, gave q 29 %
+#: off and p(q(p)) 29 % off p: the cavitation bound in q did not map back, and the elastic JFO film's
+#: first solve at 0.067 R did not converge)
+ATMOSPHERE = 1.01325e5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,7 +68,7 @@ class Barus:
 class Roelands:
     """Roelands' law with the initial slope alpha (module docstring); q(p) tabulated and inverted."""
 
-    def __init__(self, alpha: float, viscosity: float, *, p_min: float = 0.0, p_max: float = 20e9):
+    def __init__(self, alpha: float, viscosity: float, *, p_min: float = -ATMOSPHERE, p_max: float = 20e9):
         if not 0 < alpha < 1e-7:
             raise out_of_range("pressure-viscosity coefficient", alpha, "(0, 1e-7) 1/Pa (oils: 1-3e-8)")
         if not viscosity > ROELANDS_VISCOSITY:
