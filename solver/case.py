@@ -30,7 +30,6 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InputError, out_of_range, read_toml_file
-from solver.film.types import default_mesh_size
 from solver.film_rules import (
     BIG_END_LENGTHS,
     CASE_LENGTHS,
@@ -1023,20 +1022,6 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the "
         "half width",
     ),
-    _f(
-        "solver",
-        "start_mesh_size",
-        "start_mesh_size",
-        None,
-        1.0,
-        0.0,
-        1.0,
-        doc="joint mixed-fem: the run first integrates the case on a coarser film of this element size / "
-        "pin radius until its min h_min is periodic, then maps its end state (pin, film fraction, "
-        "deformation) onto the "
-        "case's film and goes on there (a cheaper start: docs/models.md); larger than the case's own "
-        "element size; absent: the case's film from the first cycle; one rank per case",
-    ),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec(
         "solver",
@@ -1411,7 +1396,6 @@ class Solver:
     mesh_size: float | None = _field(
         "solver", "mesh_size"
     )  # element size / pin radius; None: the film's default
-    start_mesh_size: float | None = _field("solver", "start_mesh_size")  # the start's film (study.start)
     rtol: float = _field("solver", "rtol")
     film_fraction_transport: str = "limited"  # limited | upwind (solver.film.jfo)
     max_cycles: int = 4
@@ -1469,7 +1453,6 @@ class Case:
             cavitation_pressure=self.oil.cavitation_pressure,
             transport=self.solver.film_fraction_transport,
         )
-        _check_start_mesh(self.solver, self.small_end)
         # a bearing no engine has is a length in the wrong unit (solver.film_rules, as the bearing command)
         check_geometry(
             radius=self.small_end.pin_radius,
@@ -1478,26 +1461,6 @@ class Case:
             sigma=self.surface.sigma,
             bushing_thickness=None if self.small_end.elastic == "none" else self.small_end.bushing_thickness,
             names=CASE_LENGTHS,
-        )
-
-
-def _check_start_mesh(solver: Solver, small_end: SmallEnd) -> None:
-    """The start's film (solver.start_mesh_size) must be coarser than the case's, for the film joint."""
-    if solver.start_mesh_size is None:
-        return
-    own = (
-        solver.mesh_size
-        if solver.mesh_size is not None
-        else default_mesh_size(small_end.width, small_end.pin_radius)
-    )
-    if not solver.start_mesh_size > own:
-        raise out_of_range(
-            "solver.start_mesh_size", f"{solver.start_mesh_size:g}", f"(solver.mesh_size = {own:g}, 1)"
-        )
-    if solver.joint != "mixed-fem":
-        raise InputError(
-            f"solver.start_mesh_size is for the finite-element film (allowed: solver.joint = 'mixed-fem'; "
-            f"got {solver.joint!r})"
         )
 
 

@@ -103,7 +103,6 @@ def run(args, comm) -> int:
             "pin_boss_h_min_min_m": summary.pin_boss_h_min_min,
             "pin_speed_mean_rpm": summary.pin_speed_mean / (2 * math.pi / 60),
             "cycles": summary.cycles,
-            "start_cycles": summary.start_cycles,
             "periodic": summary.periodic,
             "wall_time_s": summary.wall_time,
             "wall_time_last_invocation_s": summary.wall_time_last_invocation,

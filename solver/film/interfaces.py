@@ -24,7 +24,6 @@ class FilmSolver(Protocol):
     """One film kind's solver on a FilmSpace (the factory builds it; the Film calls it)."""
 
     has_history: bool  # its solves depend on committed states (solver.film.history)
-    nodal_parts: int  # the state's leading blocks of one value per owned node (the rest: modal coordinates)
     max_eccentricity_ratio: float  # |e| / c below which it is defined
 
     def reach(self, load: np.ndarray) -> float: ...  # max_eccentricity_ratio for a static load [N], raised

@@ -166,38 +166,6 @@ class Film:
         """Make ``state`` (from history_state) the next solve's warm start."""
         self.solver.start_from(state)
 
-    def state_from(self, other: "Film", state: np.ndarray) -> np.ndarray:
-        """A history state of ``other`` (the same bearing and film kind on another mesh) on this film's
-        nodes: each of its nodal parts (solver.film.interfaces.FilmSolver.nodal_parts: the film's unknown,
-        in the layer basis the deformation node by node) interpolated linearly over (theta, z) from
-        other's nodes, periodic in theta; the rest (the modes' coordinates) as it is. A start for this
-        film (solver.study.start), not a conservative transfer: its first solves settle the film."""
-        from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
-
-        parts = self.solver.nodal_parts
-        if parts != other.solver.nodal_parts:
-            raise ValueError("Film.state_from: another kind of film")
-        if self.comm.size > 1 or other.comm.size > 1:
-            raise InputError("a film mapped from another mesh is serial (allowed: one rank per case)")
-        n_from = other.space.n
-        state = np.asarray(state, float)
-
-        def angles_z(coords: np.ndarray) -> np.ndarray:
-            return np.column_stack([np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2]])
-
-        source, target = angles_z(other.space.owned_coords), angles_z(self.space.owned_coords)
-        # the source's nodes repeated a turn on either side: every target lies inside their hull
-        points = np.concatenate([source + [shift, 0.0] for shift in (-2 * math.pi, 0.0, 2 * math.pi)])
-        mapped = []
-        for k in range(parts):
-            values = np.tile(state[k * n_from : (k + 1) * n_from], 3)
-            inside = LinearNDInterpolator(points, values)(target)
-            if np.any(np.isnan(inside)):  # on the hull's edge at round-off: the nearest node's value
-                nearest = NearestNDInterpolator(points, values)(target)
-                inside = np.where(np.isnan(inside), nearest, inside)
-            mapped.append(inside)
-        return np.concatenate([*mapped, state[parts * n_from :]])
-
     def committed_history(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first: (time [s], state), copies; [] if none."""
         return self.history.committed()

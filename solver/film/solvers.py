@@ -93,9 +93,6 @@ class ReynoldsVI:
     def film_fraction(self) -> None:
         return None
 
-    #: the history state's blocks of one value per node (none: no history state)
-    nodal_parts = 0
-
     def state(self) -> None:
         return None
 
@@ -207,9 +204,6 @@ class RigidJFO:
 
     def film_fraction(self) -> np.ndarray:
         return self.solution.theta
-
-    #: the history state's blocks of one value per node: u
-    nodal_parts = 1
 
     def state(self) -> np.ndarray:
         return self.jfo.u.x.array[: self.space.n].copy()
@@ -436,12 +430,6 @@ class CoupledFilm:
             return
         state, at, slope = self._tangent
         self.ehd.start_from(state + slope @ (np.asarray(eps, float) - at))
-
-    @property
-    def nodal_parts(self) -> int:
-        """The history state's blocks of one value per node: the block's u, and in the layer basis the
-        deformation node by node (then the modes' coordinates)."""
-        return 2 if self.ehd.layered else 1
 
     def state(self) -> np.ndarray:
         return self.ehd.state()

@@ -99,10 +99,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     film_before = model.stats.copy() if model is not None else None
     n_out = int(round(720.0 / run.step_deg))
     angles = np.linspace(0.0, 720.0, n_out + 1)
-    # the whole cycles before t0 (the cycle's index, unless cycles on a coarser film came first:
-    # solver.study.start)
-    whole = round(t0 / engine.crank_motion.cycle_time)
-    times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * whole), dtype=float)
+    times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * cycle), dtype=float)
     times[0] = t0
     audit = EnergyAudit(run.em, engine.gravity)
     outputs = StateOutputs(
@@ -303,10 +300,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         oil.resume(checkpoint.thermal)
     else:
         first, history, friction = 0, [], []
-        if run.initial is not None:  # the end of the start's cycles on a coarser film (solver.study.start)
-            t0, q0, qd0 = run.initial.t, run.initial.q, run.initial.qd
-        else:
-            t0, q0, qd0 = run.em.initial_state(0.0)
+        t0, q0, qd0 = run.em.initial_state(0.0)
     # the cycle map's parts (solver.study.periodic): each cycle's change of each, and the extrapolation
     cycle_map = CycleMap(run, case.solver.periodic_acceleration)
     start = EndState(t0, q0, qd0, [])
@@ -415,7 +409,6 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 cycle.timing["io_s"] = time.perf_counter() - begin
                 cycle.timing["wall_s"] += cycle.timing["io_s"]
                 log.info("cycle %d: %s", index + 1, describe_timing(cycle.timing))
-                run.next_start = end
                 if settled_now and consistent:
                     periodic = True
                     break
@@ -428,7 +421,6 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                     run.model.start_from(start.film[-1][1])
                 if start is not end and oil.thermal is not None:  # the temperature extrapolated with them
                     oil.thermal.propose(start.temperature)
-                run.next_start = start
     except KeyboardInterrupt:
         index, angle = run.position
         raise RunInterrupted(case.name, index + 1, angle, path if saved else None, saved) from None
@@ -437,8 +429,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
             bar.close()
     if cycle is None:  # resumed after the last allowed cycle: run one more to have outputs
         at_film_temperature()
-        cycle, (t1, q1, qd1) = run.integrate_cycle(len(history), t0, q0, qd0)
-        run.next_start = EndState(t1, q1, qd1, run.model.committed_history() if run.model is not None else [])
+        cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
         friction.append(cycle.friction_power_mean)
         for name in STATE_PARTS:

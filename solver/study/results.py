@@ -251,21 +251,6 @@ class RunSummary:
     big_end_friction_power_mean: float = math.nan  # W, cycle mean of the big end's friction power
     pin_boss_h_min_min: float = math.nan  # m, cycle minimum of the floating pin's boss film (NaN: fixed pin)
     pin_speed_mean: float = math.nan  # rad/s, the floating pin's mean angular speed over the cycle
-    start_cycles: int = 0  # cycles on the coarser film before ``cycles`` (solver.study.start; 0: none)
-
-
-def _start_attributes(start) -> dict:
-    """The start's cycles on a coarser film (solver.study.start.StartRecord; none: {})."""
-    if start is None:
-        return {}
-    return {
-        "start_mesh_size": start.mesh_size,
-        "start_cycles": start.cycles,
-        "start_periodic": "true" if start.periodic else "false",
-        **{f"history.start_{name}": np.array(values, dtype=float) for name, values in start.history.items()},
-        "history.start_description": "the same histories of the start's cycles on the coarser film "
-        "(solver.start_mesh_size), which came before the cycles above",
-    }
 
 
 def attach_log(path: Path, comm: MPI.Comm) -> logging.Handler | None:
@@ -393,7 +378,6 @@ def write_results(
             "[clearance, rms over the film's nodes], state_change_temperature [K] (the heat balance's "
             "fixed point less the cycle's temperature); extrapolated_start: 1 if the cycle started from "
             "an extrapolated state (solver.study.periodic)",
-            **_start_attributes(run.start),
             "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
             + "; one value per computed cycle, the first cycle first",
             "Conventions": "CF-1.8 (partially)",
@@ -421,7 +405,6 @@ def write_results(
         periodic=periodic,
         wall_time=wall_time,
         wall_time_last_invocation=invocation,
-        start_cycles=run.start.cycles if run.start is not None else 0,
         **summary_values,
         **big_end,
         **pin,

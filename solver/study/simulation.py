@@ -45,7 +45,6 @@ from solver.dynamics.joint import JOINTS, big_end_joint_from_case, joint_from_ca
 from solver.errors import InputError
 from solver.study import cycles, fields
 from solver.study import results as results_io
-from solver.study import start as coarse_start
 from solver.study.cycles import CycleOutput, SimulationError, describe_timing
 from solver.study.film_temperature import FilmOil
 from solver.study.outputs import ideal_cycle_columns
@@ -106,11 +105,6 @@ class Run:
         # the film's committed history at the last cycle's start (after its first output), the start
         # state's film part for the cycle map (solver.study.periodic)
         self.start_film: list[tuple[float, np.ndarray]] = []
-        # the start of the first cycle when the cycles on a coarser film came first (solver.study.start),
-        # what they leave for the results, and the state the next cycle would start from (set per cycle)
-        self.initial = None
-        self.start = None
-        self.next_start = None
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""
@@ -206,18 +200,6 @@ def run_case(
             cycle = CycleOutput(ideal_cycle_columns(ideal), math.nan)
         else:
             fingerprint = case_fingerprint(case, joint)
-            if case.solver.start_mesh_size is not None:  # first the cycles on a coarser film
-                if coarse_start.start_checkpoint_done(out_dir, fingerprint, resume):
-                    run.start = coarse_start.read_record(out_dir)  # the case's film resumes after them
-                else:
-                    coarse_start.start_from_coarser_film(
-                        run,
-                        out_dir,
-                        lambda coarse: Run(coarse, comm, joint),
-                        lambda coarse: case_fingerprint(coarse, joint),
-                        progress,
-                        resume,
-                    )
             cycle, cycles_done, periodic = cycles.run_cycles(run, out_dir, fingerprint, progress, resume)
         field_paths = run.write_fields(out_dir, cycle)
         wall = time.perf_counter() - start
@@ -238,7 +220,6 @@ def run_case(
             checkpoint = out_dir / "checkpoint.npz"
             if checkpoint.exists():
                 checkpoint.unlink()
-            coarse_start.remove_start(out_dir)
         log.info(
             "finished in %.1f s: h_min min %.3g um, p_max max %.3g MPa, %d cycles, periodic %s",
             wall,

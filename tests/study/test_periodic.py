@@ -62,70 +62,37 @@ COARSE = (
 )
 
 
-def coarse_jfo_case(directory, extra: str = ""):
-    """The coarse JFO engine of the tests below (film 0.2 R, 4 deg outputs; the JFO cases' tolerances: 2 nm
-    in min h_min, 0.5 % in the friction), with ``extra`` [solver] keys. The full-film shear, as the JFO
-    cases ran: with the film-fraction weighted shear the coarse film's friction alternates by ~1 % a cycle
-    (12 plain cycles not periodic at 0.5 %)."""
-    case = _jfo_case(directory)
-    toml = case / "case.toml"
-    text = toml.read_text().replace('cavitation = "jfo"', 'cavitation = "jfo"\ncavitated_shear = "full"', 1)
-    toml.write_text(text.split("[solver]")[0] + f"[solver]\n{COARSE}{extra}")
-    return case
-
-
-def _run(case):
-    summary = run_case(case, MPI.COMM_SELF)
-    with xr.open_dataset(summary.results) as ds:
-        return summary, ds.attrs.copy()
-
-
-@pytest.fixture(scope="module")
-def plain_run(tmp_path_factory):
-    """The coarse JFO engine's plain cycles to its periodic state (measured: 9 cycles, min h_min 0.2028
-    um, 4.4229 W): the reference of the tests below."""
-    return _run(coarse_jfo_case(tmp_path_factory.mktemp("plain")))
-
-
-def _same_periodic_state(run, plain_run) -> None:
-    """Both periodic and the same periodic state within the tolerances the periodic test itself allows
-    between two cycles, twice (each run is within one tolerance of its own periodic state): min h_min
-    within 2 x 0.0002 x clearance, the friction within 2 x 0.5 %."""
-    (plain, plain_attrs), (other, _) = plain_run, run
-    clearance = plain_attrs["small_end.clearance_um"] * 1e-6
-    assert plain.periodic and other.periodic
-    assert abs(other.h_min_min - plain.h_min_min) < 2 * 0.0002 * clearance
-    assert abs(other.friction_power_mean / plain.friction_power_mean - 1) < 2 * 0.005
-
-
 @pytest.mark.slow
 @pytest.mark.serial
-def test_the_extrapolated_cycles_reach_the_plain_periodic_state(tmp_path, plain_run):
-    """The coarse JFO engine with ``periodic_acceleration = "mpe"`` against its plain cycles
-    (``_same_periodic_state``). The extrapolation saved cycles here (5 against 7) until the shear-flow
-    factor was held C1 below h/sigma = 0.5 (solver.film.flow_factors), which this coarse film reaches:
-    since then its friction wanders by 1-5 % from cycle to cycle for longer, and the runs take 9 (plain)
-    and 10 cycles (MPE), so fewer cycles is not asserted (measured: min h_min 0.2028 / 0.2012 um,
-    friction 4.4229 / 4.4116 W)."""
-    mpe = _run(coarse_jfo_case(tmp_path, 'periodic_acceleration = "mpe"\n'))
-    _same_periodic_state(mpe, plain_run)
+def test_the_extrapolated_cycles_reach_the_plain_periodic_state(tmp_path):
+    """The coarse JFO engine (film 0.2 R, 4 deg outputs; the JFO cases' tolerances: 2 nm in min h_min,
+    0.5 % in the friction) run plain and with ``periodic_acceleration = "mpe"``: both periodic and the
+    same periodic state within the tolerances the periodic test itself allows between two cycles. The
+    extrapolation saved cycles here (5 against 7) until the shear-flow factor was held C1 below
+    h/sigma = 0.5 (solver.film.flow_factors), which this coarse film reaches: since then its friction
+    wanders by 1-5 % from cycle to cycle for longer, and the runs take 9 (plain) and 10 cycles (MPE), so
+    fewer cycles is not asserted (measured: min h_min 0.2028 / 0.2012 um, friction 4.4229 / 4.4116 W).
+    Tolerances: min h_min within 2 x 0.0002 x clearance (each run is within one tolerance of its own
+    periodic state), the friction within 2 x 0.5 %."""
+    results = {}
+    for acceleration in ("none", "mpe"):
+        case = _jfo_case(tmp_path / acceleration)
+        toml = case / "case.toml"
+        # the full-film shear, as the JFO cases run: with the film-fraction weighted shear the coarse
+        # film's friction alternates by ~1 % a cycle (12 plain cycles not periodic at 0.5 %)
+        full = 'cavitation = "jfo"\ncavitated_shear = "full"'
+        text = toml.read_text().replace('cavitation = "jfo"', full, 1)
+        text = text.split("[solver]")[0]
+        toml.write_text(text + f'[solver]\n{COARSE}periodic_acceleration = "{acceleration}"\n')
+        summary = run_case(case, MPI.COMM_SELF)
+        with xr.open_dataset(summary.results) as ds:
+            results[acceleration] = (summary, ds.attrs.copy())
+    (plain, plain_attrs), (mpe, mpe_attrs) = results["none"], results["mpe"]
+    clearance = plain_attrs["small_end.clearance_um"] * 1e-6
+    assert plain.periodic and mpe.periodic
+    assert abs(mpe.h_min_min - plain.h_min_min) < 2 * 0.0002 * clearance
+    assert abs(mpe.friction_power_mean / plain.friction_power_mean - 1) < 2 * 0.005
     # each cycle's change of each part of the state is in results.nc; the plain run never extrapolates
-    plain_attrs, mpe_attrs = plain_run[1], mpe[1]
     assert np.all(np.asarray(plain_attrs["history.extrapolated_start"]) == 0)
     assert np.asarray(mpe_attrs["history.extrapolated_start"]).sum() >= 1
     assert np.all(np.isfinite(np.asarray(mpe_attrs["history.state_change_film_fraction"])))
-
-
-@pytest.mark.slow
-@pytest.mark.serial
-def test_the_start_on_a_coarser_film_reaches_the_plain_periodic_state(tmp_path, plain_run):
-    """The coarse JFO engine from its cycles on a 0.4 R film (``solver.start_mesh_size``,
-    solver.study.start) against its plain cycles (``_same_periodic_state``; measured: 3 start cycles,
-    then periodic after 3 cycles on the 0.2 R film, 0.2018 um, 4.4508 W). The start's cycles are in
-    results.nc and their checkpoints are removed at the end."""
-    started, attrs = _run(coarse_jfo_case(tmp_path, "start_mesh_size = 0.4\n"))
-    _same_periodic_state((started, attrs), plain_run)
-    assert started.start_cycles == attrs["start_cycles"] == len(attrs["history.start_h_min_min"]) >= 1
-    assert attrs["start_mesh_size"] == 0.4
-    assert len(attrs["history.h_min_min"]) == started.cycles
-    assert not (started.results.parent / "start").exists()
