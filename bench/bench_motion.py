@@ -91,8 +91,12 @@ def main() -> None:
         run = drive(model, motion, start="full")
         wall = time.perf_counter() - begin
         model.close()
-    solves, steps = float(attrs["timing.film_solves"][-1]), float(attrs["timing.steps"][-1])
-    film_s = float(attrs["timing.film_solve_s"][-1]) + float(attrs["timing.film_jacobian_s"][-1])
+    last = {
+        k: float(np.atleast_1d(attrs[f"timing.{k}"])[-1])
+        for k in ("film_solves", "steps", "film_solve_s", "film_jacobian_s")
+    }
+    solves, steps = last["film_solves"], last["steps"]
+    film_s = last["film_solve_s"] + last["film_jacobian_s"]
     rows = len(motion)
     per_step, per_solve, per_row = film_s / steps, film_s / solves, wall / rows
     print(f"case {args.case} (film {attrs['mesh_size']} R, {attrs['film_dofs']} dofs)")
