@@ -365,8 +365,13 @@ class CoupledFilm:
         try:
             return ehd.solve()
         except FilmNotConverged as err:
-            if start is None:
-                raise
+            if (
+                start is None
+            ):  # a cold start: no accepted state to continue from; damped steps if the block has them
+                damped = getattr(self.block, "damped", None)
+                if damped is None:
+                    raise
+                return err.iterations + damped(ehd.solve)
             iterations = err.iterations
         # From the last accepted state, continued in the deformation's rate: with a short step (a large
         # 1/dt) the deformation stays near the accepted one and the solve is easy; 1/dt is then brought
