@@ -122,7 +122,7 @@ def _pin(ds: xr.Dataset, angle: np.ndarray) -> dict:
 
     return {
         "pin": str(ds.attrs.get("small_end.pin", "fixed")),
-        "pin_speed_mean_rpm": pin_speed_mean(values("pin_angle"), ds.time.values) * 60 / (2 * np.pi),
+        "pin_speed_mean_rpm": pin_speed_mean(values("pin_angle"), values("time")) * 60 / (2 * np.pi),
         "pin_boss_h_min_min_m": nan_reduce(np.nanmin, values("pin_boss_h_min")),
         "pin_boss_p_max_max_Pa": nan_reduce(np.nanmax, values("pin_boss_p_max")),
         "pin_boss_friction_power_mean_W": cycle_mean(values("pin_boss_friction_power"), angle),
