@@ -99,17 +99,19 @@ def summary(ds: xr.Dataset, label: str) -> dict:
     }
 
 
+def _values(ds: xr.Dataset, angle: np.ndarray, name: str) -> np.ndarray:
+    """A variable's values over the crank angle; NaN where the file does not have it."""
+    return ds[name].values if name in ds else np.full(angle.size, np.nan)
+
+
 def _big_end(ds: xr.Dataset, angle: np.ndarray) -> dict:
     """The big end's joint and, when lubricated, its metrics (NaN when ideal or not in the file)."""
 
-    def values(name: str) -> np.ndarray:
-        return ds[name].values if name in ds else np.full(angle.size, np.nan)
-
     return {
         "big_end_joint": str(ds.attrs.get("big_end.joint", "ideal")),
-        "big_end_h_min_min_m": nan_reduce(np.nanmin, values("big_end_h_min")),
-        "big_end_p_max_max_Pa": nan_reduce(np.nanmax, values("big_end_p_max")),
-        "big_end_friction_power_mean_W": cycle_mean(values("big_end_friction_power"), angle),
+        "big_end_h_min_min_m": nan_reduce(np.nanmin, _values(ds, angle, "big_end_h_min")),
+        "big_end_p_max_max_Pa": nan_reduce(np.nanmax, _values(ds, angle, "big_end_p_max")),
+        "big_end_friction_power_mean_W": cycle_mean(_values(ds, angle, "big_end_friction_power"), angle),
     }
 
 
@@ -117,15 +119,14 @@ def _pin(ds: xr.Dataset, angle: np.ndarray) -> dict:
     """The piston pin (fixed or floating) and, when floating, its mean speed and the bosses' film's
     metrics (NaN for a fixed pin or a file without them)."""
 
-    def values(name: str) -> np.ndarray:
-        return ds[name].values if name in ds else np.full(angle.size, np.nan)
-
     return {
         "pin": str(ds.attrs.get("small_end.pin", "fixed")),
-        "pin_speed_mean_rpm": pin_speed_mean(values("pin_angle"), values("time")) * 60 / (2 * np.pi),
-        "pin_boss_h_min_min_m": nan_reduce(np.nanmin, values("pin_boss_h_min")),
-        "pin_boss_p_max_max_Pa": nan_reduce(np.nanmax, values("pin_boss_p_max")),
-        "pin_boss_friction_power_mean_W": cycle_mean(values("pin_boss_friction_power"), angle),
+        "pin_speed_mean_rpm": pin_speed_mean(_values(ds, angle, "pin_angle"), _values(ds, angle, "time"))
+        * 60
+        / (2 * np.pi),
+        "pin_boss_h_min_min_m": nan_reduce(np.nanmin, _values(ds, angle, "pin_boss_h_min")),
+        "pin_boss_p_max_max_Pa": nan_reduce(np.nanmax, _values(ds, angle, "pin_boss_p_max")),
+        "pin_boss_friction_power_mean_W": cycle_mean(_values(ds, angle, "pin_boss_friction_power"), angle),
     }
 
 

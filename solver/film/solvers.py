@@ -365,9 +365,8 @@ class CoupledFilm:
         try:
             return ehd.solve()
         except FilmNotConverged as err:
-            if (
-                start is None
-            ):  # a cold start: no accepted state to continue from; damped steps if the block has them
+            # a cold start, with no accepted state to continue from: damped steps if the block has them
+            if start is None:
                 damped = getattr(self.block, "damped", None)
                 if damped is None:
                     raise
