@@ -27,6 +27,7 @@ from pathlib import Path
 from solver.case import FIELDS
 from solver.errors import InputError
 from solver.film.surface import Surface
+from solver.film.types import TRANSPORT_SCHEMES
 from solver.film_rules import (
     CLEARANCE_RATIO_RANGE,
     FLAG_LENGTHS,
@@ -63,6 +64,23 @@ def _number(
             ok = value < high if high_open else value <= high
         if not ok:
             raise argparse.ArgumentTypeError(f"{name} = {text} is out of range (allowed: {allowed})")
+        return value
+
+    return parse
+
+
+def _integer(name: str, low: int, high: int):
+    """An argparse type: an integer in [low, high], else a one-line error naming it."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"{name} = {text} is out of range (allowed: an integer in [{low}, {high}])"
+            )
         return value
 
     return parse
@@ -561,6 +579,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "it; default) or steady (the steady film at the first row, as an engine run starts)",
     )
     parser.add_argument(
+        "--substeps",
+        type=_integer("--substeps", 1, 10000),
+        default=None,
+        help="with --motion: internal steps per row interval (default 1), the motion interpolated by "
+        "cubic Hermite between the rows and the film's history committed at each; the time "
+        "discretisation's error (e.g. the mass-conserving film's oil balance) falls as their square",
+    )
+    parser.add_argument(
+        "--transport",
+        choices=TRANSPORT_SCHEMES,
+        default=None,
+        help="with --motion and --cavitation jfo: the film fraction's transport in time, limited "
+        "(second order, flux-corrected; default) or upwind (first order, the steady film's: a constant "
+        "motion then keeps the steady answer)",
+    )
+    parser.add_argument(
         "--bushing-speed",
         type=_number("--bushing-speed", allowed="a finite number of rpm"),
         default=0.0,
@@ -735,6 +769,7 @@ def film_spec(args, bearing, surface, omega_ref: float, sliding: float, quasi_st
         piezoviscosity=piezoviscosity,
         cavitation=args.cavitation,
         cavitated_shear=args.cavitated_shear,
+        transport=getattr(args, "transport", None) or "limited",
         quasi_static=quasi_static,
     )
 
@@ -752,6 +787,13 @@ def run_motion(args, comm) -> int:
     _check_elastic(args, comm)
     motion = report.motion_of(args)
     start = args.start or "full"
+    args.substeps = args.substeps or 1
+    if args.transport is not None and args.cavitation != "jfo":
+        raise InputError(
+            f"--transport {args.transport} with --cavitation {args.cavitation} "
+            "(allowed: with --cavitation jfo)"
+        )
+    args.transport = args.transport or "limited"
     sliding = float(max(abs(motion.omega_journal - motion.omega_bushing)))
     clock = time.perf_counter()
     spec = film_spec(
@@ -771,7 +813,9 @@ def run_motion(args, comm) -> int:
         series = report.field_series(args, comm, model)
         try:
             after_row = None if series is None else (lambda i: series.write(float(motion.time[i])))
-            result = drive(model, motion, start, progress_every=every, after_row=after_row)
+            result = drive(
+                model, motion, start, progress_every=every, after_row=after_row, substeps=args.substeps
+            )
         except BaseException:
             if series is not None:
                 series.abort()
@@ -790,10 +834,15 @@ def run(args, comm) -> int:
         raise InputError(
             "--fields goes with --motion (allowed: omit it without --motion; --output writes the fields)"
         )
-    if args.start is not None:
-        raise InputError(
-            f"--start {args.start} goes with --motion (allowed: omit it with --eccentricity or --load)"
-        )
+    for flag, value, why in (
+        ("--start", args.start, ""),
+        ("--substeps", args.substeps, ""),
+        ("--transport", args.transport, "; the steady film's transport is upwind"),
+    ):
+        if value is not None:
+            raise InputError(
+                f"{flag} {value} goes with --motion (allowed: omit it with --eccentricity or --load{why})"
+            )
     resolve_viscosity(args)
     resolve_supply(args)
     _check(args)

@@ -195,11 +195,12 @@ def results_reference() -> str:
         "## `bearing --motion FILE`: `bearing_motion.nc` (`solver.study.motion`)",
         "",
         "`python3 -m solver bearing ... --motion FILE --output DIR` writes `DIR/bearing_motion.nc`,",
-        "dimension `time` (s, the motion file's rows): the film's outputs (`OUTPUTS`) and the motion as",
-        "used (`MOTION_VARIABLES`), then `iterations` (the film solver's per row). How to write the motion",
+        "dimension `time` (s, the motion file's rows): the film's outputs (`OUTPUTS`), the oil's volumes",
+        "since the first row (`VOLUMES`) and the motion as used (`MOTION_VARIABLES`), then `iterations`",
+        "(the film solver's per row). How to write the motion",
         "file: [the user guide](user-guide.md#the-film-under-a-prescribed-motion---motion-file).",
         "",
-        *_variable_table({**motion.OUTPUTS, **motion.MOTION_VARIABLES}),
+        *_variable_table({**motion.OUTPUTS, **motion.VOLUMES, **motion.MOTION_VARIABLES}),
     ]
     return "\n".join(lines) + "\n"
 

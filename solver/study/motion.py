@@ -226,6 +226,19 @@ OUTPUTS = {
 }
 
 
+#: the oil's volumes since the first row, beside OUTPUTS: name -> (units, long_name)
+VOLUMES = {
+    "supply_volume_m3": (
+        "m3",
+        "oil supplied since the first row (the supply flow of every internal step, trapezoids)",
+    ),
+    "side_volume_m3": (
+        "m3",
+        "oil lost through both edges since the first row (the side flow of every internal step, trapezoids)",
+    ),
+}
+
+
 #: the motion as used, beside OUTPUTS in bearing_motion.nc: name -> (units, long_name, Motion -> values)
 MOTION_VARIABLES = {
     "ecc_x_m": ("m", "eccentricity x (journal centre - bushing centre, bushing axes)", lambda m: m.ecc[:, 0]),
@@ -249,6 +262,23 @@ class MotionRun:
     iterations: np.ndarray
     substeps: int = 0  # internal steps added where a row's solve failed
     solve_time_s: float = 0.0
+    #: the oil supplied and lost through the edges since the first row [m^3]: the flows of every
+    #: internal step integrated by trapezoids (VOLUMES)
+    volumes: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    _last_flow: tuple | None = None  # (time, supply flow, side flow, both volumes) at the last commit
+
+    def accumulate(self, time_s: float, result) -> tuple[float, float]:
+        """The supplied and side volumes up to ``time_s`` with ``result``'s flows (trapezoids from the
+        last committed solve; 0 at the first)."""
+        supply, side = float(result.supply_flow), float(result.side_flow)
+        if self._last_flow is None:
+            volumes = (0.0, 0.0)
+        else:
+            t0, supply0, side0, v_supply, v_side = self._last_flow
+            dt = time_s - t0
+            volumes = (v_supply + dt * (supply + supply0) / 2, v_side + dt * (side + side0) / 2)
+        self._last_flow = (time_s, supply, side, *volumes)
+        return volumes
 
 
 def _full(model, state: np.ndarray) -> np.ndarray:
@@ -262,19 +292,30 @@ def _full(model, state: np.ndarray) -> np.ndarray:
     return full
 
 
-def drive(model, motion: Motion, start: str = "full", progress_every: int = 0, after_row=None) -> MotionRun:
+def drive(
+    model,
+    motion: Motion,
+    start: str = "full",
+    progress_every: int = 0,
+    after_row=None,
+    substeps: int = 1,
+) -> MotionRun:
     """Solve ``model`` (solver.film.model.Film) at every row of ``motion``, committing its history at
-    each row (module docstring); ``after_row(i)``, if given, is called after row i's solve (the film
-    then holds its solution: e.g. to write its fields). A row that fails after MAX_HALVINGS halvings
-    raises FilmNotConverged naming its time."""
+    each row and at ``substeps - 1`` equal internal steps between rows (the motion interpolated by
+    cubic Hermite: ``Motion.between``); ``after_row(i)``, if given, is called after row i's solve (the
+    film then holds its solution: e.g. to write its fields). The supplied and side volumes integrate the
+    flows of every committed solve (``MotionRun.volumes``). A row that fails after MAX_HALVINGS halvings
+    of its internal step raises FilmNotConverged naming its time."""
     if start not in START:
         raise InputError(f"--start {start} is out of range (allowed: {', '.join(START)})")
+    if not (isinstance(substeps, int) and substeps >= 1):
+        raise InputError(f"--substeps {substeps} is out of range (allowed: an integer >= 1)")
     n = len(motion)
     values = {name: np.full(n, np.nan) for name in OUTPUTS}
     iterations = np.zeros(n, dtype=int)
     history = model.has_history
     clock = time.perf_counter()
-    run = MotionRun(values, iterations)
+    run = MotionRun(values, iterations, volumes={name: np.full(n, np.nan) for name in VOLUMES})
     t = motion.time
     if history:
         first = model.solve(motion.kinematics(0))  # quasi-static: the steady film at the first row
@@ -284,10 +325,19 @@ def drive(model, motion: Motion, start: str = "full", progress_every: int = 0, a
         if i == 0 and history and start == "steady":
             result = first
             model.commit_history(model.history_state(), float(t[0]))
-        else:
-            result = _solve_row(model, motion, i, run) if history else model.solve(motion.kinematics(i))
+            run.accumulate(float(t[0]), result)
+        elif history:
+            result = _solve_row(model, motion, i, run, substeps)
+        else:  # no history: the internal steps only integrate the flows between the rows
+            for k in range(1, substeps if i > 0 else 1):
+                s = k / substeps
+                run.accumulate(float(t[i - 1] + s * (t[i] - t[i - 1])), model.solve(motion.between(i, s)))
+            result = model.solve(motion.kinematics(i))
+            run.accumulate(float(t[i]), result)
         for name, (_, _, get) in OUTPUTS.items():
             values[name][i] = get(result)
+        for name, volume in zip(VOLUMES, run._last_flow[3:]):
+            run.volumes[name][i] = volume
         iterations[i] = result.iterations
         if after_row is not None:
             after_row(i)
@@ -303,30 +353,36 @@ def drive(model, motion: Motion, start: str = "full", progress_every: int = 0, a
     return run
 
 
-def _solve_row(model, motion: Motion, i: int, run: MotionRun):
-    """Row ``i`` solved at its time with the history's rate and committed; where the solve fails, the
-    interval from the last commit is halved (intermediate states committed) until it succeeds."""
+def _solve_row(model, motion: Motion, i: int, run: MotionRun, substeps: int = 1):
+    """Row ``i`` reached in ``substeps`` equal internal steps from the last commit (row 0: one step at
+    its time), each solved with the history's rate and committed; where a solve fails, the step is
+    halved (intermediate states committed) until it succeeds."""
     t = motion.time
+    regular = 1.0 / substeps
     done = 0.0  # the fraction of the interval to row i already committed
-    step = 1.0
+    step = regular
     while True:
-        target = min(1.0, done + step)
+        target = done + step
+        if target > 1.0 - 1e-9 * step:  # (the last internal step ends on the row exactly)
+            target = 1.0
         kin = motion.kinematics(i) if target == 1.0 or i == 0 else motion.between(i, target)
         time_s = float(t[i]) if target == 1.0 or i == 0 else float(t[i - 1] + target * (t[i] - t[i - 1]))
         try:
             result = model.solve(kin, time_s)
         except FilmNotConverged:
-            if i == 0 or step <= 0.5**MAX_HALVINGS:
+            if i == 0 or step <= regular * 0.5**MAX_HALVINGS:
                 raise FilmNotConverged(
-                    f"the film at row time_s = {t[i]:g} s did not converge, also in {2**MAX_HALVINGS} "
-                    "internal steps",
+                    f"the film at row time_s = {t[i]:g} s did not converge, also in "
+                    f"{substeps * 2**MAX_HALVINGS} internal steps",
                     0,
                     0,
                 ) from None
             step /= 2
             continue
         model.commit_history(model.history_state(), time_s)
+        run.accumulate(time_s, result)
         if target == 1.0:
             return result
-        run.substeps += 1
+        if step < regular:
+            run.substeps += 1
         done = target

@@ -187,33 +187,83 @@ JFO = [
 ]
 
 
-def test_jfo_oil_balance_over_a_run(tempdir):
-    """The mass-conserving film from full over an orbit that ruptures half of it: the oil held changes
-    by the supply minus the side flow integrated over time (trapezoids over the rows). The film's rate
-    form (the engine's: solver.film.jfo) closes the balance to O(dt^2) per step only, not exactly; over
-    the run the defect falls by more than 2.6 (order > 1.4; measured 3.0) from 100 to 200 rows, and
-    at 200 rows it is below 3e-4 of the oil supplied (measured 1.4e-4)."""
+@pytest.mark.slow
+def test_jfo_oil_balance_over_a_period(tempdir):
+    """The mass-conserving film from full over one period of an orbit that ruptures half of it (100
+    rows): the oil held changes by the oil supplied minus the oil lost through the edges
+    (``supply_volume_m3``, ``side_volume_m3``: the flows of every internal step, trapezoids), to the
+    time discretisation's error. The film fraction's rate form (the engine's: solver.film.jfo) closes
+    the balance to O(dt^2) per step, not exactly: with one step per row the defect is 4.2e-4 of the oil
+    supplied (asserted > 1e-4: the check can see it), with 32 internal steps per row (--substeps)
+    1.9e-7, below the issue's 1e-6 (16: 2.3e-6; 64: 2.0e-7, the solver's tolerance over 6400 steps;
+    the fronts make the convergence irregular: the defect changes sign between 2 and 4). The volumes
+    in the file are the trapezoid sums of the flows at the rows when the steps are the rows."""
     import xarray as xr
 
+    _orbit_file(tempdir / "orbit.csv", 100)
     defects = []
-    for rows in (100, 200):
-        _orbit_file(tempdir / f"orbit{rows}.csv", rows)
-        out = tempdir / f"out{rows}"
-        _json(
+    for substeps in (1, 32):
+        out = tempdir / f"out{substeps}"
+        summary = _json(
             run_cli(
-                "bearing", *JFO, "--motion", str(tempdir / f"orbit{rows}.csv"), "--output", str(out), "--json"
+                "bearing",
+                *JFO,
+                *["--motion", str(tempdir / "orbit.csv"), "--substeps", str(substeps)],
+                *["--output", str(out), "--json"],
             )
         )
         with xr.open_dataset(out / "bearing_motion.nc") as ds:
-            t, held = ds["time"].values, ds["oil_volume_m3"].values
-            supply, side = ds["supply_flow_m3_per_s"].values, ds["side_flow_m3_per_s"].values
+            held = ds["oil_volume_m3"].values
+            supplied, lost = ds["supply_volume_m3"].values, ds["side_volume_m3"].values
             assert ds["cavitated_area_ratio"].values.max() > 0.3
-        net = np.sum(np.diff(t) * ((supply - side)[1:] + (supply - side)[:-1]) / 2)
-        supplied = np.sum(np.diff(t) * (supply[1:] + supply[:-1]) / 2)
-        assert abs(held[-1] - held[0]) > 0.1 * supplied  # the film drains: the balance is not trivial
-        defects.append(abs(held[-1] - held[0] - net) / supplied)
-    assert defects[0] / defects[1] > 2.6, defects
-    assert defects[1] < 3e-4, defects
+            if substeps == 1:  # the volumes are the rows' trapezoids (1e-12: round-off)
+                t, supply, side = (
+                    ds[k].values for k in ("time", "supply_flow_m3_per_s", "side_flow_m3_per_s")
+                )
+                for volume, flow in ((supplied, supply), (lost, side)):
+                    rows = np.concatenate([[0.0], np.cumsum(np.diff(t) * (flow[1:] + flow[:-1]) / 2)])
+                    assert np.allclose(volume, rows, rtol=1e-12, atol=1e-12 * abs(rows[-1]))
+        # the film drains (more oil leaves through the edges and back into the groove than the groove
+        # supplies over the period: the net supply is negative): the balance is not trivial
+        assert abs(held[-1] - held[0]) > 0.1 * abs(supplied[-1])
+        defect = held[-1] - held[0] - (supplied[-1] - lost[-1])
+        assert summary["oil_balance_defect_m3"] == pytest.approx(defect, rel=1e-9, abs=1e-30)
+        defects.append(abs(defect) / abs(supplied[-1]))
+    assert defects[0] > 1e-4, defects
+    assert defects[1] < 1e-6, defects
+
+
+def test_constant_jfo_state_gives_the_steady_answer_with_upwind_transport(tempdir):
+    """The mass-conserving film started steady (--start steady) at one state (eps 0.6, 40 deg) and
+    held there: with the steady film's upwind transport (--transport upwind) every row equals the
+    steady command's answer at that state to 1e-8 relative (the steady solution is the time scheme's
+    fixed point; measured 1e-13). The side flow, zero in the steady film (no supply, the edges
+    flooded), to 1e-10 of the Couette flow R c U B. With the default limited transport the rows leave
+    the upwind steady state for the limited scheme's own (a second-order transport has another
+    discrete steady state: docs/verification.md)."""
+    eps, attitude = 0.6, 40.0
+    angle = math.radians(-90.0 + attitude)
+    ecc = (eps * 10e-6 * math.cos(angle), eps * 10e-6 * math.sin(angle))
+    _write(tempdir / "m.csv", ("time_s", "ecc_x_m", "ecc_y_m"), [(t, *ecc) for t in (0.0, 1e-4, 2e-4, 3e-4)])
+    options = [*BEARING, "--speed", "3000", "--cavitation", "jfo", "--cavitation-pressure", "-0.5e5"]
+    options += ["--inlet", "none"]
+    steady = _json(run_cli("bearing", *options, "--eccentricity", "0.6", "--attitude", "40", "--json"))
+    motion = _json(
+        run_cli(
+            "bearing",
+            *options,
+            *["--motion", str(tempdir / "m.csv"), "--start", "steady", "--transport", "upwind", "--json"],
+        )
+    )
+    assert motion["transport"] == "upwind" and steady["cavitated_area_ratio"] > 0.3
+    for key in (*OUTPUT_KEYS, "cavitated_area_ratio"):
+        if key == "side_flow_m3_per_s":
+            scale = 0.01 * 10e-6 * 3000 * math.pi / 30 * 0.01 * 0.02  # R c U B
+            tolerance = 1e-10 * scale
+        else:
+            tolerance = 1e-8 * max(abs(steady[key]), 1e-300)
+        for extreme in ("maxima", "minima"):
+            assert abs(motion[extreme][key] - steady[key]) <= tolerance, (key, extreme)
 
 
 def test_the_engine_joint_gives_the_same_forces(tmp_path):
@@ -308,9 +358,36 @@ def test_bad_motion_is_one_line(tempdir, header, rows, options, fragments):
     assert_one_line_error(result, *fragments)
 
 
-def test_start_without_motion_is_one_line():
-    result = run_cli("bearing", *BEARING, "--speed", "3000", "--eccentricity", "0.5", "--start", "steady")
-    assert_one_line_error(result, "--start steady goes with --motion")
+@pytest.mark.parametrize(
+    "options, fragment",
+    [
+        (["--start", "steady"], "--start steady goes with --motion"),
+        (["--substeps", "4"], "--substeps 4 goes with --motion"),
+        (["--transport", "upwind"], "--transport upwind goes with --motion"),
+    ],
+    ids=["start", "substeps", "transport"],
+)
+def test_motion_options_without_motion_are_one_line(options, fragment):
+    result = run_cli("bearing", *BEARING, "--speed", "3000", "--eccentricity", "0.5", *options)
+    assert_one_line_error(result, fragment)
+
+
+@pytest.mark.parametrize(
+    "options, fragments",
+    [
+        (["--substeps", "0"], ("--substeps = 0", "an integer in [1, 10000]")),
+        (["--substeps", "2.5"], ("--substeps = 2.5", "an integer in [1, 10000]")),
+        (
+            ["--transport", "upwind"],
+            ("--transport upwind with --cavitation reynolds", "with --cavitation jfo"),
+        ),
+    ],
+    ids=["substeps-zero", "substeps-fraction", "transport-reynolds"],
+)
+def test_bad_motion_options_are_one_line(tempdir, options, fragments):
+    _write(tempdir / "m.csv", ("time_s", "ecc_x_m", "ecc_y_m"), [(t, 2e-6, -4e-6) for t in (0.0, 1e-4, 2e-4)])
+    result = run_cli("bearing", *BEARING, "--speed", "3000", *options, "--motion", str(tempdir / "m.csv"))
+    assert_one_line_error(result, *fragments)
 
 
 def test_fields_are_a_time_series_of_the_rows(tempdir):
