@@ -638,8 +638,20 @@ FIELDS: tuple[FieldSpec, ...] = (
         1e-3,
         0.0,
         unit="mm",
-        doc=f"both bosses' total width: in the plane the two symmetric bosses are one film of that width "
-        f"(docs/models.md); width / radius in [{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}]",
+        doc=f"both bosses' total width (each boss half of it; docs/models.md); width / radius in "
+        f"[{WIDTH_RATIO_RANGE[0]:g}, {WIDTH_RATIO_RANGE[1]:g}]",
+    ),
+    FieldSpec(
+        "pin_boss",
+        "films",
+        "films",
+        int,
+        2,
+        minimum=1,
+        maximum=2,
+        doc="2: the two bosses as two films of half the total width each, side by side (each with its own "
+        "edges: together a quarter of one whole-width film's load capacity, Ocvirk's B^3); 1: one film of "
+        "the total width (the stiffer planar simplification)",
     ),
     _f(
         "pin_boss",
@@ -1294,11 +1306,13 @@ class BigEnd:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class PinBoss:
-    """The floating pin's bearing in the piston's two bosses, as one film of their total width (SI)."""
+    """The floating pin's bearing in the piston's two bosses: two films of half the total width each, or
+    one film of the total width (``films``; SI)."""
 
     joint: str = _field("pin_boss", "joint")  # short-bearing | ideal (the fixed pin)
     radius: float = _field("pin_boss", "radius")  # m, the pin's
     width: float = _field("pin_boss", "width")  # m, both bosses together
+    films: int = _field("pin_boss", "films")  # 2: each boss its own film of width / 2; 1: one film
     clearance: float = _field("pin_boss", "clearance")  # m, radial
     viscosity_ratio: float = _field("pin_boss", "viscosity_ratio")  # of the oil's viscosity
 

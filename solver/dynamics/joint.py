@@ -237,18 +237,24 @@ class ShortBearingJoint(ClearanceJoint):
     quadrature angles, refined to the stationary point ``g' h = 3 g h'`` between its neighbours. For pure
     rotation its angle from the maximum gap is Ocvirk's ``cos theta_m = (1 - sqrt(1 + 24 eps^2)) /
     (4 eps)`` (e.g. Hamrock, Fundamentals of Fluid Film Lubrication, ch. 16).
+
+    ``films`` identical films side by side, each ``width`` wide with its own edges (a floating pin's two
+    bosses), sum their forces, torques and side flow; the peak pressure is one film's.
     """
 
     radius: float  # m
-    width: float  # m
+    width: float  # m, of one film
     clearance: float  # m
     viscosity: float  # Pa s
     points: int = 1440
+    films: int = 1  # identical films side by side (a floating pin's two bosses): forces, torques, flow summed
 
     def __post_init__(self) -> None:
         for name in ("radius", "width", "clearance", "viscosity"):
             if not getattr(self, name) > 0:
                 raise out_of_range(name, getattr(self, name), "> 0")
+        if self.films not in (1, 2):
+            raise out_of_range("films", self.films, "1 or 2")
         object.__setattr__(self, "_theta", (np.arange(self.points) + 0.5) * 2 * math.pi / self.points)
 
     def set_viscosity(self, viscosity: float) -> None:
@@ -275,7 +281,7 @@ class ShortBearingJoint(ClearanceJoint):
         # integral over z of p: -mu B^3 g / h^3 (where g < 0)
         pressure_moment = 0.5 * R * np.sum(-mu * B**3 * weight * dh) * d
         couette = mu * R**3 * B * w * np.sum(1.0 / h) * d
-        return np.array([Fx, Fy, -couette + pressure_moment, couette + pressure_moment])
+        return self.films * np.array([Fx, Fy, -couette + pressure_moment, couette + pressure_moment])
 
     def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
         z = np.array([ecc[0], ecc[1], ecc_rate[0], ecc_rate[1], omega_rel], dtype=float)
@@ -292,7 +298,8 @@ class ShortBearingJoint(ClearanceJoint):
         if not finite or math.hypot(ex, ey) >= self.clearance:
             return math.nan
         g = self._wedge_and_squeeze(ex, ey, rx, ry, omega_rel)[4]
-        return float(-self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points)
+        flow = -self.width * self.radius * np.sum(np.minimum(g, 0.0)) * 2 * math.pi / self.points
+        return float(self.films * flow)
 
     def peak_pressure(self, ecc, ecc_rate, omega_rel) -> tuple[float, float]:
         """(p_max [Pa], its bushing angle [rad] in [0, 2 pi)) on the mid-plane (class docstring); (0, NaN)
@@ -557,16 +564,17 @@ def big_end_joint_from_case(case: Case) -> ClearanceJoint | None:
 
 def pin_boss_joint_from_case(case: Case) -> ClearanceJoint | None:
     """The floating pin's film in the piston bosses (``pin_boss``): ``None`` for a fixed pin, else Ocvirk's
-    short bearing of the pin in one boss film of the bosses' total width, in the oil of ``[oil]`` times
-    ``pin_boss.viscosity_ratio``."""
+    short bearing of the pin in the bosses (``pin_boss.films``: two films of half the total width side by
+    side, or one of the total width), in the oil of ``[oil]`` times ``pin_boss.viscosity_ratio``."""
     if case.small_end.pin != "floating":
         return None
     pb = case.pin_boss
     if pb.joint == "short-bearing":
         return ShortBearingJoint(
             radius=pb.radius,
-            width=pb.width,
+            width=pb.width / pb.films,
             clearance=pb.clearance,
             viscosity=case.oil.viscosity * pb.viscosity_ratio,
+            films=pb.films,
         )
     raise InputError(f"pin_boss.joint = {pb.joint!r} is out of range (allowed: 'short-bearing')")

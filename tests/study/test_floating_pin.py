@@ -95,7 +95,8 @@ def test_a_boss_film_that_holds_the_pin_gives_the_fixed_pin(tmp_path):
 
 @pytest.mark.serial
 def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
-    """Small end and bosses the same film (R 10 mm, B 20 mm, c 10 um, the same oil), a pin of 1/1000 of
+    """Small end and bosses the same film (R 10 mm, B 20 mm, c 10 um, the same oil; the bosses as one film
+    of their total width, ``films = 1``), a pin of 1/1000 of
     the default inertia (time constant J / (C_se + C_boss) ~ 3e-5 s, 0.4 deg: the pin follows its torque
     balance), inertia loads only (gas.model = "none": eccentricities <= 0.32), one cycle at 2 deg (through
     ``run --json``).
@@ -115,7 +116,7 @@ def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
         tmp_path / "equal",
         "max_cycles = 1\nstep_deg = 2\n",
         '[gas]\nmodel = "none"\n[small_end]\npin = "floating"\npin_inertia_kg_mm2 = 0.00736\n'
-        "[pin_boss]\nradius_mm = 10\nwidth_mm = 20\nclearance_um = 10\n",
+        "[pin_boss]\nradius_mm = 10\nwidth_mm = 20\nclearance_um = 10\nfilms = 1\n",
     )
     proc = run_cli("run", str(case_dir), "--json")
     assert proc.returncode == 0, proc.stderr
@@ -172,6 +173,38 @@ def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
     friction = np.trapz(ds.pin_boss_friction_power.values, angle) / (angle[-1] - angle[0])
     assert row["pin_boss_friction_power_mean_W"] == pytest.approx(friction, rel=1e-12)
     assert run_cli("compare", str(case_dir)).stdout.count("floating pin: mean speed") == 1
+
+
+def test_two_boss_films_carry_a_quarter_of_one_whole_width_film():
+    """The bosses as two films of half the total width (``pin_boss.films = 2``, the default) against one
+    film of the total width, at one state (eps 0.7 with squeeze and rotation): Ocvirk's force goes as
+    B^3, so 2 (B/2)^3 = B^3 / 4 of the force; the Couette torque as B (the same), the side flow as B (the
+    same), the peak pressure as B^2 (a quarter: each film's own). 1e-12: the same quadrature."""
+    from pathlib import Path
+
+    from solver.case import Case, PinBoss, SmallEnd
+    from solver.dynamics.joint import pin_boss_joint_from_case
+
+    def joint(films):
+        case = Case(
+            name="boss",
+            directory=Path("."),
+            small_end=SmallEnd(pin="floating"),
+            pin_boss=PinBoss(films=films),
+        )
+        return pin_boss_joint_from_case(case)
+
+    one, two = joint(1), joint(2)
+    assert two.width == pytest.approx(one.width / 2, rel=1e-15) and two.films == 2
+    state = ((0.0, -7e-6), (1e-4, -2e-3), 150.0)
+    f1, f2 = one.forces(*state, 0.0), two.forces(*state, 0.0)
+    assert np.allclose(f2.force, f1.force / 4, rtol=1e-12, atol=0)
+    w = state[2]
+    couette1 = (f1.bushing_torque - f1.journal_torque) / 2  # the pressure moments cancel
+    couette2 = (f2.bushing_torque - f2.journal_torque) / 2
+    assert couette2 == pytest.approx(couette1, rel=1e-12) and couette1 * w > 0
+    assert two.side_flow(*state) == pytest.approx(one.side_flow(*state), rel=1e-12)
+    assert two.peak_pressure(*state)[0] == pytest.approx(one.peak_pressure(*state)[0] / 4, rel=1e-9)
 
 
 @pytest.mark.serial
@@ -254,6 +287,7 @@ def test_stated_fixed_pin_gives_the_same_answers(tmp_path):
         ('[small_end]\npin = "floating"\n[pin_boss]\njoint = "ideal"\n', "pin_boss.joint"),
         ('[pin_boss]\njoint = "mixed-fem"\n', "pin_boss.joint"),
         ("[pin_boss]\nwidth_mm = -1\n", "pin_boss.width_mm"),
+        ("[pin_boss]\nfilms = 3\n", "pin_boss.films"),
         ("[pin_boss]\nclearance_um = 25000\n", "pin_boss.clearance_um"),
         ("[pin_boss]\nradius = 10\n", "pin_boss.radius"),
         ("[pin_boss]\nviscosity_ratio = 0\n", "pin_boss.viscosity_ratio"),
