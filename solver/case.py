@@ -13,10 +13,10 @@ from it; ``name`` defaults to the case directory's name. Errors are :class:`Inpu
 that names the field as ``section.key`` and its allowed range.
 
 Sections: ``[engine]``, ``[gas]`` (the mechanism and its loads), ``[small_end]``, ``[oil]``,
-``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a short-bearing
-clearance joint in the same oil), ``[pin_boss]`` (the floating pin's film in the piston bosses,
-``small_end.pin = "floating"``) and ``[solver]`` (the coupled run: joint model, mesh,
-tolerances, cycles, outputs). Unknown sections and keys are errors.
+``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a clearance joint in
+the same oil and surface: short bearing, finite-element film or dry contact), ``[pin_boss]`` (the
+floating pin's film in the piston bosses, ``small_end.pin = "floating"``) and ``[solver]`` (the coupled
+run: joint model, mesh, tolerances, cycles, outputs). Unknown sections and keys are errors.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 INLETS = ("none", "max-gap", "hole", "axial-groove", "circumferential-groove")
 
 #: the big end's models (``big_end.joint``)
-BIG_END_JOINTS = ("ideal", "short-bearing")
+BIG_END_JOINTS = ("ideal", "short-bearing", "mixed-fem", "dry")
 
 #: the piston pin (``small_end.pin``) and the floating pin's film in the piston bosses (``pin_boss.joint``)
 PINS = ("fixed", "floating")
@@ -574,8 +574,10 @@ FIELDS: tuple[FieldSpec, ...] = (
         str,
         "ideal",
         choices=BIG_END_JOINTS,
-        doc="big-end model (crankpin in the rod's big eye): ideal revolute, or Ocvirk short bearing "
-        "(rigid, smooth, the oil of [oil])",
+        doc="big-end model (crankpin in the rod's big eye): ideal revolute; Ocvirk short bearing (rigid, "
+        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (rigid eye, the oil, "
+        "cavitation law and max-gap or no inlet of [oil], the roughness of [surface], solver.mesh_size; "
+        'oil.cavitation = "reynolds" only); or dry contact (Hertz stiffness from the moduli of [surface])',
     ),
     _f(
         "big_end",
@@ -1277,7 +1279,7 @@ class SmallEnd:
 class BigEnd:
     """Big-end bearing (crankpin in the rod's big eye) geometry and model (SI)."""
 
-    joint: str = _field("big_end", "joint")  # ideal | short-bearing
+    joint: str = _field("big_end", "joint")  # one of BIG_END_JOINTS
     radius: float = _field("big_end", "radius")  # m, crankpin radius
     width: float = _field("big_end", "width")  # m
     clearance: float = _field("big_end", "clearance")  # m, radial
@@ -1444,6 +1446,7 @@ class Case:
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
         _check_pin(self)
+        _check_big_end(self)
         # the film's compatibility rules, the same the bearing command and FilmSpec check
         check_film(
             cavitation=self.oil.cavitation,
@@ -1480,6 +1483,16 @@ def _check_pin(case: Case) -> None:
         raise InputError(
             'pin_boss.joint = "ideal" is the fixed pin (allowed with small_end.pin = "floating": '
             "'short-bearing'; or small_end.pin = \"fixed\")"
+        )
+
+
+def _check_big_end(case: Case) -> None:
+    """A finite-element big end: the Reynolds film of a rigid eye (its film has no history to carry
+    from cycle to cycle: the mass-conserving film is not offered there yet)."""
+    if case.big_end.joint == "mixed-fem" and case.oil.cavitation != "reynolds":
+        raise InputError(
+            f'big_end.joint = "mixed-fem" runs the Reynolds film (allowed with oil.cavitation = "reynolds"; '
+            f"got {case.oil.cavitation!r}; or big_end.joint = 'short-bearing', 'dry', 'ideal')"
         )
 
 

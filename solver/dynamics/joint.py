@@ -493,20 +493,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # the film's rules were checked when the case was read (solver.case, solver.film_rules)
     from solver.film.bushings import bushing_model
-    from solver.film.spec import FilmSpec
-    from solver.film.types import Bearing
-    from solver.film.viscosity import viscosity_law
 
-    bearing = Bearing(
-        radius=se.pin_radius,
-        width=se.width,
-        clearance=se.clearance,
-        viscosity=oil.viscosity,
-        cavitation_pressure=oil.cavitation_pressure,
-        inlet="max-gap" if oil.inlet == "max-gap" else "none",
-        **bearing_supply(oil),
-    )
-    surface = surface_from_case(surf)
     bushing = bushing_model(
         se.elastic,
         radius=se.pin_radius,
@@ -523,6 +510,40 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         basis=se.compliance_basis,
         grid=(se.compliance_grid_theta, se.compliance_grid_z),
     )
+    model = _film_model(
+        case,
+        engine,
+        comm,
+        radius=se.pin_radius,
+        width=se.width,
+        clearance=se.clearance,
+        supply=bearing_supply(oil),
+        bushing=bushing,
+    )
+    return FilmJoint(model), model
+
+
+def _film_model(case: Case, engine, comm, *, radius, width, clearance, supply: dict, bushing):
+    """The finite-element film (solver.film.model.Film) of a journal of ``radius`` in a bearing of
+    ``width`` and radial ``clearance`` [m]: the oil of ``[oil]`` (viscosity, cavitation law and pressure,
+    piezoviscosity, cavitated shear; the inlet max-gap or none as ``oil.inlet``, the supply ``supply``:
+    keyword arguments of solver.film.types.Bearing), the roughness and contact of ``[surface]``, the mesh
+    and transport of ``[solver]``, ``omega_ref`` the crank speed, and ``bushing`` (None: rigid)."""
+    from solver.film.spec import FilmSpec
+    from solver.film.types import Bearing
+    from solver.film.viscosity import viscosity_law
+
+    oil, solver = case.oil, case.solver
+    bearing = Bearing(
+        radius=radius,
+        width=width,
+        clearance=clearance,
+        viscosity=oil.viscosity,
+        cavitation_pressure=oil.cavitation_pressure,
+        inlet="max-gap" if oil.inlet == "max-gap" else "none",
+        **supply,
+    )
+    surface = surface_from_case(case.surface)
     spec = FilmSpec(
         bearing=bearing,
         omega_ref=engine.crank_motion.speed,
@@ -538,21 +559,60 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     )
     from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
 
-    model = make_film(spec, comm)
-    return FilmJoint(model), model
+    return make_film(spec, comm)
 
 
-def big_end_joint_from_case(case: Case) -> ClearanceJoint | None:
-    """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else
-    Ocvirk's short bearing of the crankpin in the rod's big eye, in the oil of ``[oil]``."""
-    be = case.big_end
+def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
+    """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else the
+    crankpin (journal, turning with the crank) in the rod's big eye (bushing): Ocvirk's short bearing in
+    the oil of ``[oil]``; the finite-element film (``mixed-fem``: a :class:`FilmJoint` whose ``model`` is
+    the film, built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; rigid eye, the oil,
+    cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[surface]``, the mesh of
+    ``[solver]``); or the dry contact (Hertz stiffness from ``[surface]``'s moduli)."""
+    be, surf = case.big_end, case.surface
     if be.joint == "ideal":
         return None
     if be.joint == "short-bearing":
         return ShortBearingJoint(
             radius=be.radius, width=be.width, clearance=be.clearance, viscosity=case.oil.viscosity
         )
-    raise InputError(f"big_end.joint = {be.joint!r} is out of range (allowed: 'ideal', 'short-bearing')")
+    if be.joint == "dry":
+        stiffness = hertz_line_stiffness(
+            be.radius, be.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing, surf.nu_bushing
+        )
+        return DryContactJoint(
+            radius=be.radius,
+            clearance=be.clearance,
+            stiffness=stiffness,
+            restitution=surf.restitution,
+            friction=surf.asperity_friction,
+            impact_speed=surf.impact_speed,
+            slip_regularisation=case.solver.slip_regularisation,
+        )
+    if be.joint == "mixed-fem":
+        if engine is None:
+            from solver.dynamics.engine import engine_from_case
+
+            engine = engine_from_case(case)
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_SELF
+        model = _film_model(
+            case,
+            engine,
+            comm,
+            radius=be.radius,
+            width=be.width,
+            clearance=be.clearance,
+            supply={},
+            bushing=None,
+        )
+        return FilmJoint(model)
+    raise InputError(
+        f"big_end.joint = {be.joint!r} is out of range "
+        "(allowed: 'ideal', 'short-bearing', 'mixed-fem', 'dry')"
+    )
 
 
 def pin_boss_joint_from_case(case: Case) -> ClearanceJoint | None:
