@@ -44,7 +44,6 @@ from solver.case import Case, case_attributes, defaults_note, load_case
 from solver.dynamics.engine import FloatingPin, build_mechanism, engine_from_case, simulate_ideal
 from solver.dynamics.joint import (
     JOINTS,
-    FilmJoint,
     big_end_joint_from_case,
     joint_from_case,
     pin_boss_joint_from_case,
@@ -80,7 +79,7 @@ class Run:
         self.joint, self.model = joint_from_case(case, self.engine, comm, joint_name)
         # None: an ideal big end; a FilmJoint (big_end.joint = "mixed-fem") has its film as ``model``
         self.big_joint = big_end_joint_from_case(case, self.engine, comm)
-        self.big_model = self.big_joint.model if isinstance(self.big_joint, FilmJoint) else None
+        self.big_model = getattr(self.big_joint, "model", None)
         self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
         pin = None
         if self.boss_joint is not None:
