@@ -69,7 +69,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-two-films-") as work:
         rows = {}
         for name, big_end in (("small end FE alone", "ideal"), ("small end + big end FE", "mixed-fem")):
-            directory = case_with(Path(work) / big_end, big_end, args.mesh_size, args.step_deg, args.supply)
+            supply = args.supply if big_end == "mixed-fem" else "none"
+            directory = case_with(Path(work) / big_end, big_end, args.mesh_size, args.step_deg, supply)
             rows[name] = one_run(directory, args.cycles)
     print(
         f"mesh_size {args.mesh_size:g} R, step {args.step_deg:g} deg, cycle {args.cycles} of {args.cycles} "
