@@ -13,10 +13,10 @@ from it; ``name`` defaults to the case directory's name. Errors are :class:`Inpu
 that names the field as ``section.key`` and its allowed range.
 
 Sections: ``[engine]``, ``[gas]`` (the mechanism and its loads), ``[small_end]``, ``[oil]``,
-``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a short-bearing
-clearance joint in the same oil), ``[pin_boss]`` (the floating pin's film in the piston bosses,
-``small_end.pin = "floating"``) and ``[solver]`` (the coupled run: joint model, mesh,
-tolerances, cycles, outputs). Unknown sections and keys are errors.
+``[surface]`` (the lubricated small end), ``[big_end]`` (the big end: ideal, or a clearance joint in
+the same oil and surface: short bearing, finite-element film or dry contact), ``[pin_boss]`` (the
+floating pin's film in the piston bosses, ``small_end.pin = "floating"``) and ``[solver]`` (the coupled
+run: joint model, mesh, tolerances, cycles, outputs). Unknown sections and keys are errors.
 """
 
 from __future__ import annotations
@@ -46,7 +46,9 @@ from solver.oil import GRADES, MIN_KINEMATIC_VISCOSITY, OilData, oil_data
 INLETS = ("none", "max-gap", "hole", "axial-groove", "circumferential-groove")
 
 #: the big end's models (``big_end.joint``)
-BIG_END_JOINTS = ("ideal", "short-bearing")
+BIG_END_JOINTS = ("ideal", "short-bearing", "mixed-fem", "dry")
+#: the big end's oil supply (``big_end.supply``): a hole in the crankpin, turning with the crank
+BIG_END_SUPPLIES = ("none", "hole")
 
 #: the piston pin (``small_end.pin``) and the floating pin's film in the piston bosses (``pin_boss.joint``)
 PINS = ("fixed", "floating")
@@ -574,8 +576,10 @@ FIELDS: tuple[FieldSpec, ...] = (
         str,
         "ideal",
         choices=BIG_END_JOINTS,
-        doc="big-end model (crankpin in the rod's big eye): ideal revolute, or Ocvirk short bearing "
-        "(rigid, smooth, the oil of [oil])",
+        doc="big-end model (crankpin in the rod's big eye): ideal revolute; Ocvirk short bearing (rigid, "
+        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (rigid eye, the oil, "
+        "cavitation law and max-gap or no inlet of [oil], the roughness of [surface], solver.mesh_size; "
+        'oil.cavitation = "reynolds" only); or dry contact (Hertz stiffness from the moduli of [surface])',
     ),
     _f(
         "big_end",
@@ -607,6 +611,50 @@ FIELDS: tuple[FieldSpec, ...] = (
         unit="um",
         doc=f"big-end radial clearance c; c / R in [{CLEARANCE_RATIO_RANGE[0]:g}, "
         f"{CLEARANCE_RATIO_RANGE[1]:g}]",
+    ),
+    FieldSpec(
+        "big_end",
+        "supply",
+        "supply",
+        str,
+        "none",
+        choices=BIG_END_SUPPLIES,
+        doc="oil supply of a mixed-fem big end: none, or a hole in the crankpin (it turns with the crank: in "
+        "the rod frame at supply_hole_angle_deg + crank angle - rod angle), held at supply_pressure_bar",
+    ),
+    _f(
+        "big_end",
+        "supply_pressure_bar",
+        "supply_pressure",
+        3.0,
+        BAR,
+        0.0,
+        1000.0,
+        closed=True,
+        unit="bar",
+        doc="with supply = hole: oil pressure in the crankpin's hole, gauge (a typical gallery pressure)",
+    ),
+    _f(
+        "big_end",
+        "supply_hole_diameter_mm",
+        "supply_hole_diameter",
+        5.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with supply = hole: the hole's diameter; < big_end.width_mm and < big_end.radius_mm",
+    ),
+    _f(
+        "big_end",
+        "supply_hole_angle_deg",
+        "supply_hole_angle",
+        0.0,
+        DEG,
+        -360.0,
+        360.0,
+        unit="deg",
+        doc="with supply = hole: the hole's angle on the crankpin from the crank throw (0: the side away "
+        "from the crank axis), counter-clockwise as the crank turns; on the mid-plane",
     ),
     # [pin_boss]
     FieldSpec(
@@ -1289,10 +1337,14 @@ class SmallEnd:
 class BigEnd:
     """Big-end bearing (crankpin in the rod's big eye) geometry and model (SI)."""
 
-    joint: str = _field("big_end", "joint")  # ideal | short-bearing
+    joint: str = _field("big_end", "joint")  # one of BIG_END_JOINTS
     radius: float = _field("big_end", "radius")  # m, crankpin radius
     width: float = _field("big_end", "width")  # m
     clearance: float = _field("big_end", "clearance")  # m, radial
+    supply: str = _field("big_end", "supply")  # one of BIG_END_SUPPLIES
+    supply_pressure: float = _field("big_end", "supply_pressure")  # Pa, gauge
+    supply_hole_diameter: float = _field("big_end", "supply_hole_diameter")  # m
+    supply_hole_angle: float = _field("big_end", "supply_hole_angle")  # rad, crank frame
 
     def __post_init__(self) -> None:
         _check_section(self, "big_end")
@@ -1458,6 +1510,7 @@ class Case:
     def __post_init__(self) -> None:
         _check_supply(self.oil, self.small_end)
         _check_pin(self)
+        _check_big_end(self)
         # the film's compatibility rules, the same the bearing command and FilmSpec check
         check_film(
             cavitation=self.oil.cavitation,
@@ -1494,6 +1547,41 @@ def _check_pin(case: Case) -> None:
         raise InputError(
             'pin_boss.joint = "ideal" is the fixed pin (allowed with small_end.pin = "floating": '
             "'short-bearing'; or small_end.pin = \"fixed\")"
+        )
+
+
+def _check_big_end(case: Case) -> None:
+    """A finite-element big end: the Reynolds film of a rigid eye (its film has no history to carry
+    from cycle to cycle: the mass-conserving film is not offered there yet)."""
+    be = case.big_end
+    if be.supply == "hole":
+        if be.joint != "mixed-fem":
+            raise InputError(
+                f'big_end.supply = "hole" is fed into the finite-element film (allowed with big_end.joint = '
+                f'"mixed-fem"; got {be.joint!r})'
+            )
+        if case.oil.inlet == "max-gap":
+            raise InputError(
+                'big_end.supply = "hole" with oil.inlet = "max-gap" is out of range (allowed with a supply: '
+                'oil.inlet "none", "hole", "axial-groove" or "circumferential-groove": the small end\'s own)'
+            )
+        limit = min(be.width, be.radius) * 1e3
+        if not be.supply_hole_diameter * 1e3 < limit:
+            raise out_of_range(
+                "big_end.supply_hole_diameter_mm",
+                f"{be.supply_hole_diameter * 1e3:g}",
+                f"< min(big_end.width_mm, big_end.radius_mm) = {limit:g}",
+            )
+        if not be.supply_pressure >= case.oil.cavitation_pressure:
+            raise out_of_range(
+                "big_end.supply_pressure_bar",
+                f"{be.supply_pressure / BAR:g}",
+                f">= oil.cavitation_pressure_bar = {case.oil.cavitation_pressure / BAR:g}",
+            )
+    if case.big_end.joint == "mixed-fem" and case.oil.cavitation != "reynolds":
+        raise InputError(
+            f'big_end.joint = "mixed-fem" runs the Reynolds film (allowed with oil.cavitation = "reynolds"; '
+            f"got {case.oil.cavitation!r}; or big_end.joint = 'short-bearing', 'dry', 'ideal')"
         )
 
 

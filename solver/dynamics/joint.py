@@ -216,6 +216,93 @@ class FilmJoint(ClearanceJoint):
         }
 
 
+def _turn(angle: float) -> np.ndarray:
+    """The rotation matrix of ``angle`` [rad]."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+_S = np.array([[0.0, -1.0], [1.0, 0.0]])  # a quarter turn: S v is v turned by +90 deg
+
+
+class JournalFrameFilmJoint(ClearanceJoint):
+    """The finite-element film solved in the journal's frame: a film whose feature (an oil hole) is on
+    the journal and turns with it, as the crankpin's hole of the big end.
+
+    The film model (solver.film.model.Film) holds its mesh, and so its hole, still in its own frame and
+    takes the surface it is meshed on as its stationary one, with the other one sliding at the relative
+    speed. Here that stationary surface is the journal's: the film is built with the journal's and the
+    bushing's roughness exchanged (its "journal" is the bushing's surface) and is handed, at a relative
+    angle ``phi`` of the journal frame to the bushing frame (``Q = A(phi)^T``)::
+
+        e_f = Q e',   de_f/dt = Q de'/dt - omega_rel S e_f,   omega_f = -omega_rel
+
+    (the gap ``c - e_f . n`` is the same gap seen from the journal, and only the slip between the
+    surfaces drives the wedge and the shear). Its force on its inner body is the journal's, so
+    ``F' = Q^T F_f``; its "journal" torque is on the bushing and its "bushing" torque on the journal
+    (the Couette torques exchange with the slip's sign; the pressure part is shared, -e x F / 2 each;
+    the asperity normals pass through the journal's centre instead of the bushing's, which moves
+    ``e x F_asperity``, ~c / (mu_f R) ~ 1 % of the asperity friction torque, from one body to the
+    other: their sum, the moment balance, is unchanged). The Jacobian is the film's, through these
+    maps: exact at a given phi.
+
+    ``phi = frame_angle(t)``: a function of time alone (the big end: crank angle less the ideal
+    mechanism's rod angle at t; the rod's angle in the clearance joint differs from it by ~c / l,
+    1e-4 rad, against a hole of ~0.2 rad). Rigid Reynolds films only (no history to turn).
+    """
+
+    def __init__(self, film: FilmJoint, frame_angle):
+        if film.model.has_history:
+            raise InputError(
+                "a film solved in the journal's frame has no history (allowed: the rigid Reynolds film)"
+            )
+        self.film, self.model, self.frame_angle = film, film.model, frame_angle
+        self.OUTPUTS = film.OUTPUTS
+
+    def set_viscosity(self, viscosity: float) -> None:
+        """The oil's viscosity [Pa s] anew (FilmJoint.set_viscosity)."""
+        self.film.set_viscosity(viscosity)
+
+    def in_journal_frame(
+        self, ecc, ecc_rate, omega_rel, t
+    ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        """(e_f, de_f/dt, omega_f, Q) of a bushing-frame state at time t (class docstring)."""
+        Q = _turn(float(self.frame_angle(t))).T
+        e_f = Q @ np.asarray(ecc, dtype=float)
+        rate_f = Q @ np.asarray(ecc_rate, dtype=float) - float(omega_rel) * (_S @ e_f)
+        return e_f, rate_f, -float(omega_rel), Q
+
+    def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+        e_f, rate_f, omega_f, Q = self.in_journal_frame(ecc, ecc_rate, omega_rel, t)
+        f = self.film.forces(e_f, rate_f, omega_f, t, jacobian)
+        force = Q.T @ np.asarray(f.force, dtype=float)
+        jac = None
+        if jacobian and f.jacobian is not None:
+            # d z_f / d z, z = (e', de'/dt, omega_rel)
+            M = np.zeros((5, 5))
+            M[0:2, 0:2] = Q
+            M[2:4, 0:2] = -float(omega_rel) * (_S @ Q)
+            M[2:4, 2:4] = Q
+            M[2:4, 4] = -(_S @ e_f)
+            M[4, 4] = -1.0
+            # (F', T_j, T_b) from the film's (F_f, T_jf, T_bf)
+            P = np.zeros((4, 4))
+            P[0:2, 0:2] = Q.T
+            P[2, 3] = P[3, 2] = 1.0
+            jac = P @ np.asarray(f.jacobian, dtype=float) @ M
+        return JointForces(force, f.bushing_torque, f.journal_torque, jac)
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
+        """The film's variables (FilmJoint.OUTPUTS) at a state whose ``forces`` were just evaluated, the
+        angles turned back to the bushing frame."""
+        e_f, rate_f, omega_f, _ = self.in_journal_frame(ecc, ecc_rate, omega_rel, t)
+        out = self.film.outputs(e_f, rate_f, omega_f, t, None)
+        turn = math.degrees(float(self.frame_angle(t)))
+        if "h_min_angle" in out:
+            out["h_min_angle"] = (out["h_min_angle"] + turn) % 360.0
+        return out
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class ShortBearingJoint(ClearanceJoint):
     """Ocvirk's short-bearing film, half-Sommerfeld, for rotation and squeeze (bushing frame).
@@ -500,20 +587,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # the film's rules were checked when the case was read (solver.case, solver.film_rules)
     from solver.film.bushings import bushing_model
-    from solver.film.spec import FilmSpec
-    from solver.film.types import Bearing
-    from solver.film.viscosity import viscosity_law
 
-    bearing = Bearing(
-        radius=se.pin_radius,
-        width=se.width,
-        clearance=se.clearance,
-        viscosity=oil.viscosity,
-        cavitation_pressure=oil.cavitation_pressure,
-        inlet="max-gap" if oil.inlet == "max-gap" else "none",
-        **bearing_supply(oil),
-    )
-    surface = surface_from_case(surf)
     bushing = bushing_model(
         se.elastic,
         radius=se.pin_radius,
@@ -530,6 +604,41 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         basis=se.compliance_basis,
         grid=(se.compliance_grid_theta, se.compliance_grid_z),
     )
+    model = _film_model(
+        case,
+        engine,
+        comm,
+        radius=se.pin_radius,
+        width=se.width,
+        clearance=se.clearance,
+        supply=bearing_supply(oil),
+        bushing=bushing,
+    )
+    return FilmJoint(model), model
+
+
+def _film_model(case: Case, engine, comm, *, radius, width, clearance, supply: dict, bushing, surface=None):
+    """The finite-element film (solver.film.model.Film) of a journal of ``radius`` in a bearing of
+    ``width`` and radial ``clearance`` [m]: the oil of ``[oil]`` (viscosity, cavitation law and pressure,
+    piezoviscosity, cavitated shear; the inlet max-gap or none as ``oil.inlet``, the supply ``supply``:
+    keyword arguments of solver.film.types.Bearing), the roughness and contact of ``[surface]`` (or of
+    ``surface``, a solver.film.surface.Surface), the mesh and transport of ``[solver]``, ``omega_ref`` the
+    crank speed, and ``bushing`` (None: rigid)."""
+    from solver.film.spec import FilmSpec
+    from solver.film.types import Bearing
+    from solver.film.viscosity import viscosity_law
+
+    oil, solver = case.oil, case.solver
+    bearing = Bearing(
+        radius=radius,
+        width=width,
+        clearance=clearance,
+        viscosity=oil.viscosity,
+        cavitation_pressure=oil.cavitation_pressure,
+        inlet="max-gap" if oil.inlet == "max-gap" else "none",
+        **supply,
+    )
+    surface = surface if surface is not None else surface_from_case(case.surface)
     spec = FilmSpec(
         bearing=bearing,
         omega_ref=engine.crank_motion.speed,
@@ -545,21 +654,104 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     )
     from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
 
-    model = make_film(spec, comm)
-    return FilmJoint(model), model
+    return make_film(spec, comm)
 
 
-def big_end_joint_from_case(case: Case) -> ClearanceJoint | None:
-    """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else
-    Ocvirk's short bearing of the crankpin in the rod's big eye, in the oil of ``[oil]``."""
-    be = case.big_end
+def crankpin_angle_to_rod(engine):
+    """phi(t) [rad]: the crank's (crankpin's) frame relative to the rod's, crank angle less the rod
+    angle of the ideal mechanism, ``theta - asin((a - r sin theta) / l)`` (DESIGN 3.7's frame; the crank
+    angle from the crank's prescribed motion)."""
+    r, l, a = engine.crank_radius, engine.rod_length, engine.pin_offset
+    motion = engine.crank_motion
+
+    def angle(t: float) -> float:
+        theta = float(motion.angle(t))
+        return theta - math.asin((a - r * math.sin(theta)) / l)
+
+    return angle
+
+
+def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
+    """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else the
+    crankpin (journal, turning with the crank) in the rod's big eye (bushing): Ocvirk's short bearing in
+    the oil of ``[oil]``; the finite-element film (``mixed-fem``: a :class:`FilmJoint` whose ``model`` is
+    the film, built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; rigid eye, the oil,
+    cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[surface]``, the mesh of
+    ``[solver]``; with ``big_end.supply = "hole"`` the hole in the crankpin, the film solved in the
+    crankpin's frame: a :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from
+    ``[surface]``'s moduli)."""
+    be, surf = case.big_end, case.surface
     if be.joint == "ideal":
         return None
     if be.joint == "short-bearing":
         return ShortBearingJoint(
             radius=be.radius, width=be.width, clearance=be.clearance, viscosity=case.oil.viscosity
         )
-    raise InputError(f"big_end.joint = {be.joint!r} is out of range (allowed: 'ideal', 'short-bearing')")
+    if be.joint == "dry":
+        stiffness = hertz_line_stiffness(
+            be.radius, be.clearance, surf.E_pin, surf.nu_pin, surf.E_bushing, surf.nu_bushing
+        )
+        return DryContactJoint(
+            radius=be.radius,
+            clearance=be.clearance,
+            stiffness=stiffness,
+            restitution=surf.restitution,
+            friction=surf.asperity_friction,
+            impact_speed=surf.impact_speed,
+            slip_regularisation=case.solver.slip_regularisation,
+        )
+    if be.joint == "mixed-fem":
+        if engine is None:
+            from solver.dynamics.engine import engine_from_case
+
+            engine = engine_from_case(case)
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_SELF
+        if be.supply == "none":
+            model = _film_model(
+                case,
+                engine,
+                comm,
+                radius=be.radius,
+                width=be.width,
+                clearance=be.clearance,
+                supply={},
+                bushing=None,
+            )
+            return FilmJoint(model)
+        # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
+        # (JournalFrameFilmJoint), the hole fixed on its mesh
+        surface = dataclasses.replace(
+            surface_from_case(surf),
+            sigma_journal=surf.sigma_bushing,
+            sigma_bushing=surf.sigma_pin,
+            E_journal=surf.E_bushing,
+            nu_journal=surf.nu_bushing,
+            E_bushing=surf.E_pin,
+            nu_bushing=surf.nu_pin,
+        )
+        model = _film_model(
+            case,
+            engine,
+            comm,
+            radius=be.radius,
+            width=be.width,
+            clearance=be.clearance,
+            supply={
+                "supply_pressure": be.supply_pressure,
+                "supply_hole_angle": be.supply_hole_angle,
+                "supply_hole_diameter": be.supply_hole_diameter,
+            },
+            bushing=None,
+            surface=surface,
+        )
+        return JournalFrameFilmJoint(FilmJoint(model), crankpin_angle_to_rod(engine))
+    raise InputError(
+        f"big_end.joint = {be.joint!r} is out of range "
+        "(allowed: 'ideal', 'short-bearing', 'mixed-fem', 'dry')"
+    )
 
 
 def pin_boss_joint_from_case(case: Case) -> ClearanceJoint | None:

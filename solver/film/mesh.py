@@ -36,6 +36,7 @@ import signal
 from mpi4py import MPI
 
 import gmsh
+import numpy as np
 from dolfinx.io import gmshio
 
 from solver.errors import InputError, out_of_range
@@ -124,9 +125,18 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         occ.remove([(d, t) for d, t in gmsh.model.getEntities(2) if t not in film_pieces], recursive=True)
         occ.synchronize()
         # The supply's pieces lie inside its axial range; the rest of the film reaches the edge at
-        # z = B/2, outside it (every supply ends inside the width).
+        # z = B/2, outside it (every supply ends inside the width). A hole's piece is told by its centre
+        # of mass, within its radius of the hole's centre on the surface (the rest of the film's is near
+        # the axis): OCC's bounding boxes of the curved pieces are not tight, and for holes at 150-200
+        # deg the hole's box reached beyond its axial range, so no piece was found.
         tol = 1e-6
         for t in film_pieces:
+            if isinstance(supply, SupplyHole):
+                centre = np.array(gmsh.model.occ.getCenterOfMass(2, t))
+                hole = np.array([math.cos(supply.angle), math.sin(supply.angle), supply.z])
+                if np.linalg.norm(centre - hole) < supply.diameter / 2:
+                    supply_surfaces.append(t)
+                continue
             bbox = gmsh.model.getBoundingBox(2, t)
             if bbox[2] >= z_low - tol and bbox[5] <= z_high + tol:
                 supply_surfaces.append(t)

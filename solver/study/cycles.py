@@ -96,7 +96,8 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     state, the committed history states its film's rate was taken from (solver.study.fields)."""
     start = time.perf_counter()
     model, engine = run.model, run.engine
-    film_before = model.stats.copy() if model is not None else None
+    models = run.film_models  # the small end's film and the big end's (each counts its own work)
+    film_before = [m.stats.copy() for m in models]
     n_out = int(round(720.0 / run.step_deg))
     angles = np.linspace(0.0, 720.0, n_out + 1)
     times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * cycle), dtype=float)
@@ -113,6 +114,8 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     )
     prefix = "" if run.lead == "small_end" else "big_end_"
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
+    # the big end's film has none (a rigid Reynolds film, solver.case): nothing of it to commit
+    assert run.big_model is None or not run.big_model.has_history
 
     def step_accepted(t: float) -> None:
         """An accepted integrator step: a film history's state at its end starts the rate of the next
@@ -177,16 +180,18 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     wall = time.perf_counter() - start
     timing = dict.fromkeys(TIMING, 0.0)
     timing.update(wall_s=wall, steps=stepper.steps, rejected_steps=stepper.rejected, multibody_s=wall)
-    if film_before is not None:
-        now = model.stats
-        timing.update(
-            film_solves=now.solves - film_before.solves,
-            vi_iterations=now.vi_iterations - film_before.vi_iterations,
-            film_jacobians=now.jacobians - film_before.jacobians,
-            transport_fallbacks=now.transport_fallbacks - film_before.transport_fallbacks,
-            film_solve_s=now.solve_seconds - film_before.solve_seconds,
-            film_jacobian_s=now.jacobian_seconds - film_before.jacobian_seconds,
-        )
+    if models:  # the films' work over the cycle, summed over the films
+        for m, before in zip(models, film_before):
+            now = m.stats
+            for name, value in (
+                ("film_solves", now.solves - before.solves),
+                ("vi_iterations", now.vi_iterations - before.vi_iterations),
+                ("film_jacobians", now.jacobians - before.jacobians),
+                ("transport_fallbacks", now.transport_fallbacks - before.transport_fallbacks),
+                ("film_solve_s", now.solve_seconds - before.solve_seconds),
+                ("film_jacobian_s", now.jacobian_seconds - before.jacobian_seconds),
+            ):
+                timing[name] += value
         timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
     return CycleOutput(columns, float(np.nanmin(columns[prefix + "h_min"])), timing, prefix), (t, q, qd)
 

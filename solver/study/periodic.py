@@ -239,10 +239,10 @@ class CycleMap:
         plain_q = self._period_q(end)
         mechanism = self.run.em.mechanism
         joints = self.run.em.clearance_joints
-        limits = {  # the finite-element film (small end) has its own largest eccentricity ratio
-            name: c * (self.run.model.max_eccentricity_ratio if self.run.model is not None else 1.0)
-            if name == "small_end"
-            else c
+        # a finite-element film (small end, big end) has its own largest eccentricity ratio
+        films = {"small_end": self.run.model, "big_end": getattr(self.run, "big_model", None)}
+        limits = {
+            name: c * (films[name].max_eccentricity_ratio if films.get(name) is not None else 1.0)
             for name, c in self.run.clearances.items()
         }
         for _ in range(6):  # the step halved toward the plain start until the pin is inside

@@ -122,6 +122,16 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "big_end_h_min_angle": ("degree", "big end: rod-frame angle of the thinnest film, as h_min_angle"),
     "big_end_p_max": ("Pa", "big end: peak film pressure"),
     "big_end_F_hydro": ("N", "big end: film (hydrodynamic) force magnitude"),
+    "big_end_F_asperity": (
+        "N",
+        "big end: asperity contact force magnitude (mixed-fem; dry: all of the force; short-bearing: 0)",
+    ),
+    "big_end_contact_area_ratio": ("1", "big end: real asperity contact area over nominal bearing area"),
+    "big_end_supply_flow": ("m3 s-1", "big end: oil volume flow from a supply into the film (mixed-fem)"),
+    "big_end_cavitated_area_ratio": (
+        "1",
+        "big end: ruptured film area over bearing area, as cavitated_area_ratio (mixed-fem)",
+    ),
     "big_end_friction_torque": ("N m", "big end: friction torque on the crankpin about its centre"),
     "big_end_friction_power": (
         "W",
@@ -213,7 +223,8 @@ FILM_VARIABLES: dict[str, tuple[str, str]] = {
 #: cycle, the first cycle first).
 TIMING: dict[str, str] = {
     "wall_s": "wall time of the cycle (integration, outputs and checkpoint)",
-    "film_solves": "film solves (each an SNES VI solve, its assembly and functionals)",
+    "film_solves": "film solves (each an SNES VI solve, its assembly and functionals; the small end's and "
+    "a finite-element big end's together, as the other film counts and seconds)",
     "vi_iterations": "SNES VI (Newton) iterations of all film solves",
     "film_jacobians": "film Jacobians (sensitivities with the converged active set)",
     "steps": "accepted integrator steps",
@@ -351,6 +362,11 @@ def write_results(
             "wall_time_last_invocation_s": invocation,
             "mesh_size": run.model.mesh_spec.element_size if run.model is not None else "none",
             "film_dofs": run.model.dofs if run.model is not None else 0,
+            **(
+                {"big_end_film_dofs": run.big_model.dofs}
+                if getattr(run, "big_model", None) is not None
+                else {}
+            ),
             "rtol": case.solver.rtol,
             "atol": "1e-4 clearance on positions, x crank speed on velocities",
             "periodic_tolerance": case.solver.periodic_tolerance,

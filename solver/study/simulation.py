@@ -2,10 +2,11 @@
 
 The case's engine (solver.dynamics.engine) is built with the small end as a clearance joint whose law is one
 of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``short-bearing``; ``dry``) or as
-an ideal revolute (``ideal``), the big end as an ideal revolute or a short-bearing clearance joint
-(``big_end.joint``), and the piston pin fixed in the piston or floating (``small_end.pin``: a body of its
-own, turning in the small end's film and in the bosses' short-bearing film, ``[pin_boss]``); all the clearance
-joints' forces enter every stage of one integration. The equations of motion are
+an ideal revolute (``ideal``), the big end as an ideal revolute or a clearance joint (``big_end.joint``:
+short bearing, the finite-element film of the crankpin in the rod's big eye, or dry contact), and the
+piston pin fixed in the piston or floating (``small_end.pin``: a body of its own, turning in the small
+end's film and in the bosses' short-bearing film, ``[pin_boss]``); all the clearance joints' forces (each
+finite-element film solved) enter every stage of one integration. The equations of motion are
 integrated with the L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the
 joint's exact Jacobian, so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
 
@@ -41,7 +42,12 @@ import numpy as np
 from solver import __version__
 from solver.case import Case, case_attributes, defaults_note, load_case
 from solver.dynamics.engine import FloatingPin, build_mechanism, engine_from_case, simulate_ideal
-from solver.dynamics.joint import JOINTS, big_end_joint_from_case, joint_from_case, pin_boss_joint_from_case
+from solver.dynamics.joint import (
+    JOINTS,
+    big_end_joint_from_case,
+    joint_from_case,
+    pin_boss_joint_from_case,
+)
 from solver.errors import InputError
 from solver.study import cycles, fields
 from solver.study import results as results_io
@@ -71,7 +77,9 @@ class Run:
         self.engine = engine_from_case(case)
         self.omega = self.engine.crank_motion.speed
         self.joint, self.model = joint_from_case(case, self.engine, comm, joint_name)
-        self.big_joint = big_end_joint_from_case(case)  # None: an ideal big end
+        # None: an ideal big end; a FilmJoint (big_end.joint = "mixed-fem") has its film as ``model``
+        self.big_joint = big_end_joint_from_case(case, self.engine, comm)
+        self.big_model = getattr(self.big_joint, "model", None)
         self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
         pin = None
         if self.boss_joint is not None:
@@ -105,6 +113,11 @@ class Run:
         # the film's committed history at the last cycle's start (after its first output), the start
         # state's film part for the cycle map (solver.study.periodic)
         self.start_film: list[tuple[float, np.ndarray]] = []
+
+    @property
+    def film_models(self) -> list:
+        """The finite-element films of the run (the small end's, then the big end's), for their counters."""
+        return [model for model in (self.model, self.big_model) if model is not None]
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""
@@ -238,5 +251,6 @@ def run_case(
         return summary
     finally:
         results_io.detach_log(handler)
-        if run is not None and run.model is not None:
-            run.model.close()
+        if run is not None:
+            for model in run.film_models:
+                model.close()

@@ -61,6 +61,25 @@ def test_half_mesh_covers_z_above_the_mid_plane(comm):
     assert _integrate(mesh, one, dx(TAGS["supply"])) == pytest.approx(0.5 * math.pi * 0.2**2, rel=0.03)
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("degrees", [150.0, 180.0, -167.0, 200.0])
+@pytest.mark.parametrize("half", [False, True])
+def test_hole_at_any_angle_is_cut(comm, degrees, half):
+    """A hole at 150-200 deg (where OCC's loose bounding boxes of the curved pieces hid the hole's
+    piece: 'gmsh did not cut the supply'): the supply cells are the hole, area pi d^2/4 (half of it on a
+    half mesh; 3 % for the polygonal rim), centred at its angle (0.01 rad)."""
+    angle = math.radians(degrees)
+    spec = FilmMeshSpec(width=0.8, element_size=0.1, supply=SupplyHole(angle=angle, diameter=0.2), half=half)
+    mesh, cell_tags, _ = film_mesh(spec, comm)
+    one = fem.Constant(mesh, 1.0)
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
+    hole_area = _integrate(mesh, one, dx(TAGS["supply"]))
+    assert hole_area == pytest.approx((0.5 if half else 1.0) * math.pi * 0.1**2, rel=0.03)
+    x = ufl.SpatialCoordinate(mesh)
+    centre = [_integrate(mesh, x[i], dx(TAGS["supply"])) / hole_area for i in range(2)]
+    assert abs(math.remainder(math.atan2(centre[1], centre[0]) - angle, 2 * math.pi)) < 0.01
+
+
 GROOVES = [
     AxialGroove(angle=2.0, arc=math.radians(40), length=0.8),
     AxialGroove(angle=-1.0, arc=math.radians(350), length=0.3),  # nearly all round: a thin land at the seam
