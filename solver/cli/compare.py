@@ -6,7 +6,8 @@ name stored in it (so that a copied ``results.nc`` keeps its case's name). Print
 one JSON object with ``--json``): the joint, the cycle minimum of h_min, the maxima of p_max, of the
 asperity force and of the bushing's deformation, the cycle means of the friction power and of the ruptured
 film's share of the bearing area (cavitation model beside it); for a lubricated big end one more line
-(JSON keys ``big_end_*``: its joint, min h_min, max p_max, mean friction power), for a floating pin one
+(JSON keys ``big_end_*``: its joint, min h_min, max p_max, max asperity force, mean friction power), for a
+floating pin one
 more (JSON keys ``pin``, ``pin_speed_mean_rpm`` and ``pin_boss_*``: the bosses' film's min h_min, max p_max,
 mean friction power). With ``--output PNG``
 rank 0 also writes the plot: h_min, p_max, asperity force, friction power and (where the runs have it) the
@@ -111,6 +112,7 @@ def _big_end(ds: xr.Dataset, angle: np.ndarray) -> dict:
         "big_end_joint": str(ds.attrs.get("big_end.joint", "ideal")),
         "big_end_h_min_min_m": nan_reduce(np.nanmin, _values(ds, angle, "big_end_h_min")),
         "big_end_p_max_max_Pa": nan_reduce(np.nanmax, _values(ds, angle, "big_end_p_max")),
+        "big_end_F_asperity_max_N": nan_reduce(np.nanmax, _values(ds, angle, "big_end_F_asperity")),
         "big_end_friction_power_mean_W": cycle_mean(_values(ds, angle, "big_end_friction_power"), angle),
     }
 
@@ -191,7 +193,8 @@ def run(args: argparse.Namespace, comm) -> int:
                         print(
                             f"{row['run']:<28} big end {row['big_end_joint']}: min h_min "
                             f"{row['big_end_h_min_min_m'] * 1e6:.3f} um, max p_max "
-                            f"{row['big_end_p_max_max_Pa'] / 1e6:.1f} MPa, friction "
+                            f"{row['big_end_p_max_max_Pa'] / 1e6:.1f} MPa, max asperity force "
+                            f"{row['big_end_F_asperity_max_N']:.1f} N, friction "
                             f"{row['big_end_friction_power_mean_W']:.3f} W"
                         )
                 for row in rows:

@@ -254,8 +254,12 @@ def _metrics(summary: Any) -> dict[str, Any]:
         "heat_to_oil",
         "heat_carried",
         "big_end_h_min_min",
+        "big_end_p_max_max",
+        "big_end_F_asperity_max",
         "big_end_friction_power_mean",
         "pin_boss_h_min_min",
+        "pin_boss_p_max_max",
+        "pin_boss_friction_power_mean",
         "pin_speed_mean",
     ):
         value = getattr(summary, name, None)

@@ -260,7 +260,11 @@ class RunSummary:
     wall_time_last_invocation: float = math.nan  # s, of the invocation that finished the run
     big_end_h_min_min: float = math.nan  # m, cycle minimum of the big end's film thickness (NaN: ideal)
     big_end_friction_power_mean: float = math.nan  # W, cycle mean of the big end's friction power
+    big_end_p_max_max: float = math.nan  # Pa, cycle maximum of the big end's peak pressure
+    big_end_F_asperity_max: float = math.nan  # N, cycle maximum of the big end's asperity force
     pin_boss_h_min_min: float = math.nan  # m, cycle minimum of the floating pin's boss film (NaN: fixed pin)
+    pin_boss_p_max_max: float = math.nan  # Pa, cycle maximum of the bosses' peak pressure
+    pin_boss_friction_power_mean: float = math.nan  # W, cycle mean of the bosses' friction power
     pin_speed_mean: float = math.nan  # rad/s, the floating pin's mean angular speed over the cycle
 
 
@@ -343,10 +347,14 @@ def write_results(
     }
     big_end = {
         "big_end_h_min_min": nan_reduce(np.nanmin, cols["big_end_h_min"]),
+        "big_end_p_max_max": nan_reduce(np.nanmax, cols["big_end_p_max"]),
+        "big_end_F_asperity_max": nan_reduce(np.nanmax, cols["big_end_F_asperity"]),
         "big_end_friction_power_mean": cycle_mean(cols["big_end_friction_power"], cols["crank_angle"]),
     }
     pin = {
         "pin_boss_h_min_min": nan_reduce(np.nanmin, cols["pin_boss_h_min"]),
+        "pin_boss_p_max_max": nan_reduce(np.nanmax, cols["pin_boss_p_max"]),
+        "pin_boss_friction_power_mean": cycle_mean(cols["pin_boss_friction_power"], cols["crank_angle"]),
         "pin_speed_mean": pin_speed_mean(cols["pin_angle"], cols["time"]),
     }
     film = run.oil.record(cols)

@@ -10,17 +10,18 @@
 - variables (NaN for cases without a finished run): ``h_min_min`` [m] cycle minimum of the minimum film
   thickness, ``p_max_max`` [Pa] cycle maximum of the peak film pressure, ``F_asperity_max`` [N] cycle
   maximum of the asperity contact force, ``friction_power_mean`` [W] cycle mean of the friction power,
-  ``big_end_h_min_min``, ``big_end_p_max_max``, ``big_end_friction_power_mean`` the same of the big end
-  (NaN where it is ideal), ``pin_boss_h_min_min`` [m] and ``pin_speed_mean`` [rad/s] of a floating pin
-  (NaN for a fixed one), ``run_time`` [s] wall time of the run (over every invocation that worked on
-  it: a resumed run's earlier part included), ``run_time_last_invocation`` [s] the part of the
-  invocation that finished it; the integers ``cycles`` (int32; 0 without a finished run) and
-  ``periodic`` (int8, 1 periodic, 0 not, or no finished run; CF ``flag_values``/``flag_meanings``),
-  ``ran_this_invocation`` (int8, 1 when the case ran in the batch invocation that wrote the summary, 0
-  when it had finished before or did not run); and the strings ``status`` (complete = finished, in this
-  or an earlier invocation; failed, invalid, missing) and ``error``. The metrics come from
-  ``results/results.nc``: its ``summary.*`` attributes when present, else computed from its variables
-  with the same definitions (trapezoidal cycle mean).
+  ``big_end_h_min_min``, ``big_end_p_max_max``, ``big_end_F_asperity_max``, ``big_end_friction_power_mean``
+  the same of the big end (NaN where it is ideal), ``pin_boss_h_min_min`` [m], ``pin_boss_p_max_max`` [Pa],
+  ``pin_boss_friction_power_mean`` [W] (the bosses' smooth films have no asperity contact) and
+  ``pin_speed_mean`` [rad/s] of a floating pin (NaN for a fixed one), ``run_time`` [s] wall time of the run
+  (over every invocation that worked on it: a resumed run's earlier part included),
+  ``run_time_last_invocation`` [s] the part of the invocation that finished it; the integers ``cycles``
+  (int32; 0 without a finished run) and ``periodic`` (int8, 1 periodic, 0 not, or no finished run; CF
+  ``flag_values``/``flag_meanings``), ``ran_this_invocation`` (int8, 1 when the case ran in the batch
+  invocation that wrote the summary, 0 when it had finished before or did not run); and the strings
+  ``status`` (complete = finished, in this or an earlier invocation; failed, invalid, missing) and
+  ``error``. The metrics come from ``results/results.nc``: its ``summary.*`` attributes when present, else
+  computed from its variables with the same definitions (trapezoidal cycle mean).
 - attributes: besides the constant parameters, ``n_cases`` and the counts ``n_complete`` (every
   finished case), ``n_skipped`` (of them, those finished before this invocation), ``n_failed``,
   ``n_invalid``, ``n_missing``.
@@ -67,6 +68,12 @@ METRICS: dict[str, tuple[str, str, float, str]] = {
         1e-6,
         "MPa",
     ),
+    "big_end_F_asperity_max": (
+        "N",
+        "big end (when lubricated): cycle maximum of its asperity contact force",
+        1.0,
+        "N",
+    ),
     "big_end_friction_power_mean": (
         "W",
         "big end (when lubricated): cycle mean of its friction power",
@@ -78,6 +85,18 @@ METRICS: dict[str, tuple[str, str, float, str]] = {
         "floating pin: cycle minimum of the bosses' minimum film thickness",
         1e6,
         "um",
+    ),
+    "pin_boss_p_max_max": (
+        "Pa",
+        "floating pin: cycle maximum of the bosses' peak film pressure",
+        1e-6,
+        "MPa",
+    ),
+    "pin_boss_friction_power_mean": (
+        "W",
+        "floating pin: cycle mean of the bosses' friction power",
+        1.0,
+        "W",
     ),
     "pin_speed_mean": (
         "rad s-1",
@@ -94,8 +113,11 @@ _RESULTS_VARIABLE = {
     "friction_power_mean": ("friction_power", None),
     "big_end_h_min_min": ("big_end_h_min", np.nanmin),
     "big_end_p_max_max": ("big_end_p_max", np.nanmax),
+    "big_end_F_asperity_max": ("big_end_F_asperity", np.nanmax),
     "big_end_friction_power_mean": ("big_end_friction_power", None),
     "pin_boss_h_min_min": ("pin_boss_h_min", np.nanmin),
+    "pin_boss_p_max_max": ("pin_boss_p_max", np.nanmax),
+    "pin_boss_friction_power_mean": ("pin_boss_friction_power", None),
 }  # None: trapezoidal cycle mean
 
 

@@ -267,11 +267,12 @@ def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
         expected = {
             "big_end_h_min_min": np.nanmin(ds.big_end_h_min.values),
             "big_end_p_max_max": np.nanmax(ds.big_end_p_max.values),
+            "big_end_F_asperity_max": np.nanmax(ds.big_end_F_asperity.values),  # (a smooth film: 0)
             "big_end_friction_power_mean": np.trapz(ds.big_end_friction_power.values, angle)
             / (angle[-1] - angle[0]),
         }
         for name, value in expected.items():
-            assert float(summary[name].values[0]) == pytest.approx(value, rel=1e-12), name
+            assert float(summary[name].values[0]) == pytest.approx(value, rel=1e-12, abs=1e-300), name
             assert math.isnan(float(summary[name].values[1])), name
     record = json.loads((tmp_path / "batch" / "batch_status.json").read_text())["cases"][0]
     assert record["metrics"]["big_end_h_min_min"] == pytest.approx(expected["big_end_h_min_min"], rel=1e-12)
@@ -283,9 +284,10 @@ def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
     for key, name in (
         ("big_end_h_min_min_m", "big_end_h_min_min"),
         ("big_end_p_max_max_Pa", "big_end_p_max_max"),
+        ("big_end_F_asperity_max_N", "big_end_F_asperity_max"),
         ("big_end_friction_power_mean_W", "big_end_friction_power_mean"),
     ):
-        assert rows[0][key] == pytest.approx(expected[name], rel=1e-12), key
+        assert rows[0][key] == pytest.approx(expected[name], rel=1e-12, abs=1e-300), key
         assert rows[1][key] is None or math.isnan(rows[1][key]), key
     table = run_cli("compare", str(lubricated), str(ideal)).stdout
     assert table.count("big end short-bearing: min h_min") == 1

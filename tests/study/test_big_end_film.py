@@ -263,7 +263,10 @@ def test_engine_cycle_with_both_joints_fe(tmp_path, supply):
     # the FE big end's own variables are reported (the small end's names, prefixed)
     for name in ("big_end_p_max", "big_end_F_asperity", "big_end_cavitated_area_ratio", "big_end_h_min"):
         assert np.all(np.isfinite(ds[name].values)), name
+    # the run's summary (run --json, batch): each joint's reductions of its own variables (1e-12)
     assert summary.big_end_h_min_min == pytest.approx(float(ds.big_end_h_min.min()), rel=1e-12)
+    assert summary.big_end_p_max_max == pytest.approx(float(ds.big_end_p_max.max()), rel=1e-12)
+    assert summary.big_end_F_asperity_max == pytest.approx(float(ds.big_end_F_asperity.max()), rel=1e-12)
     assert int(ds.attrs["big_end_film_dofs"]) > 0
     flow = ds.big_end_supply_flow.values
     if supply == "none":

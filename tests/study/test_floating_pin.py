@@ -134,6 +134,10 @@ def test_equal_films_turn_the_pin_at_the_mean_of_rod_and_piston(tmp_path):
     mean = (ds.pin_angle.values[-1] - ds.pin_angle.values[0]) / (ds.time.values[-1] - ds.time.values[0])
     assert report["pin_speed_mean_rpm"] == pytest.approx(mean / RPM, rel=1e-12)
     assert report["pin_boss_h_min_min_m"] == pytest.approx(float(ds.pin_boss_h_min.min()), rel=1e-12)
+    assert report["pin_boss_p_max_max_Pa"] == pytest.approx(float(ds.pin_boss_p_max.max()), rel=1e-12)
+    angle = ds.crank_angle.values
+    boss_friction = np.trapz(ds.pin_boss_friction_power.values, angle) / (angle[-1] - angle[0])
+    assert report["pin_boss_friction_power_mean_W"] == pytest.approx(boss_friction, rel=1e-12)
     rod_mean = np.trapz(rod, ds.time.values) / (ds.time.values[-1] - ds.time.values[0])
     print(f"rms {rms((w - half)[later]) / rms(half):.4f}, mean {mean:.4g} rad/s, rod mean {rod_mean:.3g}")
     assert rms((w - half)[later]) < 0.06 * rms(half)
