@@ -7,14 +7,15 @@ and the film force depends on that velocity). At each output the state's variabl
 consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
 stage integrals accumulate (solver.study.energy); a film with history commits its state.
 
-The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else
-of the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next
-(at least two cycles, at most ``solver.max_cycles``) and, when ``solver.periodic_friction_tolerance`` is
-set, the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective"
-also when the cycle's heat balance closes (solver.study.film_temperature). The checkpoint
-(``results/checkpoint.npz``, solver.study.io.Checkpoint) holds the state, the per-cycle histories, the
-thermal iteration and the film's committed history, so an interrupted run resumes from the last finished
-cycle. An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
+The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else of
+the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next, and
+so does each other lubricated joint's (the big end, a floating pin's bosses: each by its own clearance), at
+least two cycles and at most ``solver.max_cycles``; and, when ``solver.periodic_friction_tolerance`` is set,
+the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective" also when
+the cycle's heat balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
+solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the film's
+committed history, so an interrupted run resumes from the last finished cycle.
+An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
 inside the cycles leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint
 is kept.
 """
@@ -38,10 +39,13 @@ from solver.study.energy import STAGE_COLUMNS, EnergyAudit, input_work
 from solver.study.film_temperature import set_film_temperature
 from solver.study.outputs import StateOutputs
 from solver.study.periodic import STATE_PARTS, CycleMap, EndState
-from solver.study.results import TIMING
+from solver.study.results import TIMING, nan_reduce
 from solver.study.thermal import ThermalError, cycle_mean
 
 log = logging.getLogger(__name__)
+
+#: the prefix of each clearance joint's columns (solver.study.outputs)
+PREFIX = {"small_end": "", "big_end": "big_end_", "pin_boss": "pin_boss_"}
 
 CHUNK_DEG = 10.0  # crank angle between progress updates
 
@@ -112,7 +116,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         run.case.big_end.clearance,
         run.case.pin_boss.clearance,
     )
-    prefix = "" if run.lead == "small_end" else "big_end_"
+    prefix = PREFIX[run.lead]
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
     # the big end's film has none (a rigid Reynolds film, solver.case): nothing of it to commit
     assert run.big_model is None or not run.big_model.has_history
@@ -289,11 +293,14 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
     count, periodic); ``run.timings`` and ``run.cycle_history`` hold the per-cycle timing and histories."""
     case, comm, oil = run.case, run.comm, run.oil
     path = out_dir / "checkpoint.npz"
+    # the other lubricated joints' cycle minima of h_min (the periodic test follows them too)
+    others: dict[str, list[float]] = {name: [] for name in run.clearances if name != run.lead}
     checkpoint = io.read_checkpoint(path, fingerprint) if resume else None
     timings: list[dict[str, float]] = []
     if checkpoint is not None:
         first, t0, q0, qd0 = checkpoint.cycles, checkpoint.t, checkpoint.q, checkpoint.qd
         history, friction = checkpoint.h_min_history, checkpoint.friction_history
+        others = {name: list(checkpoint.joint_histories.get(name, [])) for name in others}
         timings = checkpoint.timings
         log.info("resuming after cycle %d from %s", first, path)
         run.earlier_wall_time = checkpoint.elapsed_s
@@ -318,17 +325,29 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
     c = run.clearances.get(run.lead, case.small_end.clearance)  # of the joint the periodic test follows
     friction_tolerance = case.solver.periodic_friction_tolerance
 
+    def h_change(values: list[float], clearance: float) -> float:
+        return abs(values[-1] - values[-2]) / clearance if len(values) > 1 else math.inf
+
     def settled() -> tuple[bool, str]:  # (periodic by the cycles' min h_min and friction, what changed)
         extrapolated_start = bool(extrapolated and extrapolated[-1])
-        h_change = abs(history[-1] - history[-2]) / c if len(history) > 1 else math.inf
+        lead_change = h_change(history, c)
         f_change = relative_change(friction)
         text = (
-            f"min h_min = {history[-1] * 1e6:.4g} um (change {h_change:.2g} of the clearance), "
+            f"min h_min = {history[-1] * 1e6:.4g} um (change {lead_change:.2g} of the clearance), "
             f"mean friction power = {friction[-1]:.6g} W (change {f_change:.2g})"
         )
-        return h_change < case.solver.periodic_tolerance and (
-            friction_tolerance is None or f_change < friction_tolerance
-        ), text + (" (the cycle started from the extrapolated state)" if extrapolated_start else "")
+        other_changes = {name: h_change(values, run.clearances[name]) for name, values in others.items()}
+        for name, change in other_changes.items():
+            text += f"; {name} min h_min = {others[name][-1] * 1e6:.4g} um (change {change:.2g})"
+        return lead_change < case.solver.periodic_tolerance and all(
+            change < case.solver.periodic_tolerance for change in other_changes.values()
+        ) and (friction_tolerance is None or f_change < friction_tolerance), text + (
+            " (the cycle started from the extrapolated state)" if extrapolated_start else ""
+        )
+
+    def record_others(cycle: CycleOutput) -> None:
+        for name, values in others.items():
+            values.append(nan_reduce(np.nanmin, cycle.columns[PREFIX[name] + "h_min"]))
 
     def at_film_temperature() -> None:  # the temperature the thermal iteration asks for
         if oil.thermal is not None and oil.thermal.temperature != oil.temperature:
@@ -386,6 +405,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 extrapolated.append(1.0 if cycle_map.extrapolated else 0.0)
                 history.append(cycle.h_min_min)
                 friction.append(cycle.friction_power_mean)
+                record_others(cycle)
                 settled_now, text = settled()
                 log.info("cycle %d: %s", index + 1, text)
                 log.info(
@@ -408,6 +428,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             thermal=oil.thermal.state() if oil.thermal is not None else None,
                             film=run.model.committed_history() if run.model is not None else [],
                             elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
+                            joint_histories=others,
                         ),
                     )
                 saved = index + 1
@@ -437,6 +458,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         cycle, _ = run.integrate_cycle(len(history), t0, q0, qd0)
         history.append(cycle.h_min_min)
         friction.append(cycle.friction_power_mean)
+        record_others(cycle)
         for name in STATE_PARTS:
             changes[name].append(math.nan)
         extrapolated.append(0.0)
@@ -446,6 +468,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
     run.cycle_history = {
         "h_min_min": list(history),
         "friction_power_mean": list(friction),
+        **{f"{PREFIX[name]}h_min_min": list(values) for name, values in others.items()},
         **{f"state_change_{name}": values for name, values in changes.items()},
         "extrapolated_start": extrapolated,
     }

@@ -308,6 +308,8 @@ class Checkpoint:
             (the film's ``committed_history``; [] for a film without history).
         elapsed_s: s, the wall time of the run up to this checkpoint, over every invocation that
             worked on it (a resumed run's wall time goes on from it).
+        joint_histories: m, the min h_min of each cycle done of the other lubricated joints, by name
+            (``big_end``, ``pin_boss``; the periodic test follows them too).
     """
 
     fingerprint: str
@@ -321,6 +323,7 @@ class Checkpoint:
     thermal: list[dict] | None = None
     film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
     elapsed_s: float = 0.0
+    joint_histories: dict[str, list[float]] = dataclasses.field(default_factory=dict)
 
 
 def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
@@ -344,6 +347,9 @@ def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
                 film_states=film_states,
                 friction=np.asarray(checkpoint.friction_history, dtype=float),
                 elapsed=float(checkpoint.elapsed_s),
+                joint_histories=json.dumps(
+                    {k: list(map(float, v)) for k, v in checkpoint.joint_histories.items()}
+                ),
             )
 
 
@@ -388,6 +394,7 @@ def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
                     if "elapsed" in data
                     else float(sum(t.get("wall_s", 0.0) for t in timings))
                 ),
+                joint_histories=json.loads(str(data["joint_histories"])) if "joint_histories" in data else {},
             )
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)

@@ -395,7 +395,8 @@ def write_results(
             },
             "history.description": "per computed cycle, the first cycle first: h_min_min, the cycle minimum "
             "of h_min [m]; friction_power_mean, the cycle mean of friction_power [W] (the periodic test's "
-            "quantities); the change of each part of the state over the cycle, NaN where the state has no "
+            "quantities, with big_end_h_min_min and pin_boss_h_min_min of the other lubricated joints); "
+            "the change of each part of the state over the cycle, NaN where the state has no "
             "such part or the cycle was resumed: state_change_position [clearance] and "
             "state_change_velocity [clearance x crank speed] (the pin's eccentricity in the bushing and "
             "its rate), state_change_film_fraction (largest at a node), state_change_deformation "

@@ -291,3 +291,53 @@ def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
         assert rows[1][key] is None or math.isnan(rows[1][key]), key
     table = run_cli("compare", str(lubricated), str(ideal)).stdout
     assert table.count("big end short-bearing: min h_min") == 1
+
+
+def test_the_periodic_test_follows_every_lubricated_joint(tmp_path):
+    """Small end and big end short bearings, 5 deg outputs, until periodic (at most 4 cycles): the
+    results' ``history.big_end_h_min_min`` holds each cycle's minimum of the big end's film thickness
+    (the last cycle's equals the results' own, 1e-12), and the run is called periodic only when the big
+    end's last change is below ``periodic_tolerance`` x its own clearance, as the small end's."""
+    case_dir = make_case(
+        tmp_path / "both",
+        'joint = "short-bearing"\nmax_cycles = 4\nstep_deg = 5\nperiodic_tolerance = 1e-4\n'
+        "field_step_deg = 0\nfield_angles_deg = []\n",
+        'joint = "short-bearing"\n',
+    )
+    summary = run_case(case_dir, MPI.COMM_SELF)
+    case = load_case(case_dir)
+    with xr.open_dataset(summary.results) as ds:
+        big = np.asarray(ds.attrs["history.big_end_h_min_min"], dtype=float)
+        small = np.asarray(ds.attrs["history.h_min_min"], dtype=float)
+        assert len(big) == len(small) == summary.cycles
+        assert big[-1] == pytest.approx(float(ds.big_end_h_min.min()), rel=1e-12)
+    assert summary.periodic
+    tolerance = case.solver.periodic_tolerance
+    assert abs(big[-1] - big[-2]) < tolerance * case.big_end.clearance
+    assert abs(small[-1] - small[-2]) < tolerance * case.small_end.clearance
+
+
+def test_a_checkpoint_keeps_the_other_joints_histories(tmp_path):
+    """The checkpoint's ``joint_histories`` (the big end's and the bosses' cycle minima of h_min) are
+    read back as written (exactly), and an older checkpoint without them reads as none."""
+    from solver.study import io
+
+    checkpoint = io.Checkpoint(
+        fingerprint="f",
+        cycles=2,
+        t=0.1,
+        q=np.zeros(3),
+        qd=np.zeros(3),
+        h_min_history=[3e-7, 3.1e-7],
+        friction_history=[2.0, 2.1],
+        timings=[],
+        joint_histories={"big_end": [1.6e-6, 1.61e-6], "pin_boss": [1.07e-6, 1.071e-6]},
+    )
+    path = tmp_path / "checkpoint.npz"
+    io.write_checkpoint(path, checkpoint)
+    back = io.read_checkpoint(path, "f")
+    assert back.joint_histories == checkpoint.joint_histories
+    with np.load(path) as data:  # the same file without the key: a checkpoint of the code before
+        older = {key: data[key] for key in data.files if key != "joint_histories"}
+    np.savez(path, **older)
+    assert io.read_checkpoint(path, "f").joint_histories == {}
