@@ -37,6 +37,24 @@ PANELS = (
     ("friction_power", "friction power [W]", 1.0),
     ("cavitated_area_ratio", "cavitated area ratio", 1.0),
 )
+#: more panels when some run has a lubricated big end (the force on the rod also for an ideal one) or a
+#: floating pin
+BIG_END_PANELS = (
+    ("big_end_force", "big end: force on the rod [kN]", 1e-3),
+    ("big_end_h_min", "big end: h_min [um]", 1e6),
+    ("big_end_p_max", "big end: p_max [MPa]", 1e-6),
+    ("big_end_friction_power", "big end: friction power [W]", 1.0),
+)
+PIN_PANELS = (("pin_speed", "floating pin: speed [rpm]", 60 / (2 * np.pi)),)
+
+
+def _panel_values(ds: xr.Dataset, name: str) -> np.ndarray | None:
+    """A panel's values of one run (None: the run has none)."""
+    if name == "big_end_force":
+        if "big_end_force_x" not in ds:
+            return None
+        return np.hypot(ds.big_end_force_x.values, ds.big_end_force_y.values)
+    return ds[name].values if name in ds else None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -133,20 +151,26 @@ def _pin(ds: xr.Dataset, angle: np.ndarray) -> dict:
 
 
 def plot(datasets: dict[str, xr.Dataset], path: Path) -> None:
-    """One panel per PANELS variable (that some run has) over the crank angle, one line per run."""
-    panels = [panel for panel in PANELS if any(panel[0] in ds for ds in datasets.values())]
+    """One panel per PANELS variable (that some run has) over the crank angle, one line per run; the big
+    end's panels when some run has a lubricated big end, the pin's speed when some run's pin floats."""
+    big_end = any(ds.attrs.get("big_end.joint", "ideal") != "ideal" for ds in datasets.values())
+    floating = any(ds.attrs.get("small_end.pin", "fixed") == "floating" for ds in datasets.values())
+    candidates = PANELS + (BIG_END_PANELS if big_end else ()) + (PIN_PANELS if floating else ())
+    panels = [p for p in candidates if any(_panel_values(ds, p[0]) is not None for ds in datasets.values())]
     fig, axes = io.subplots(
         len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True, constrained_layout=True
     )
     for ax, (name, label, scale) in zip(axes, panels):
         for run, ds in datasets.items():
-            if name in ds:
-                ax.plot(ds.crank_angle.values, ds[name].values * scale, lw=1.2, label=run)
+            values = _panel_values(ds, name)
+            if values is not None:
+                ax.plot(ds.crank_angle.values, values * scale, lw=1.2, label=run)
         ax.set_ylabel(label)
         for x in (0, 180, 360, 540, 720):
             ax.axvline(x, color="0.85", lw=0.8, zorder=0)
     axes[0].legend(fontsize=8)
-    axes[0].set_title("small end over the cycle, run by run", fontsize=9)
+    title = "small end" + (", big end" if big_end else "") + (", floating pin" if floating else "")
+    axes[0].set_title(f"{title} over the cycle, run by run", fontsize=9)
     axes[-1].set_xlim(0, 720)
     axes[-1].set_xticks(range(0, 721, 90))
     axes[-1].set_xlabel("crank angle [deg] (360 = firing TDC)")

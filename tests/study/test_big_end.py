@@ -291,6 +291,18 @@ def test_batch_summary_carries_the_big_ends_metrics(tmp_path):
         assert rows[1][key] is None or math.isnan(rows[1][key]), key
     table = run_cli("compare", str(lubricated), str(ideal)).stdout
     assert table.count("big end short-bearing: min h_min") == 1
+    # the plot gains the big end's panels: its force on the rod for both runs (the ideal one's reaction)
+    from solver.cli.compare import BIG_END_PANELS, _panel_values, plot
+
+    with (
+        xr.open_dataset(lubricated / "results" / "results.nc") as a,
+        xr.open_dataset(ideal / "results" / "results.nc") as b,
+    ):
+        force = _panel_values(b, "big_end_force")
+        assert np.allclose(force, np.hypot(b.big_end_force_x.values, b.big_end_force_y.values), rtol=1e-15)
+        assert all(_panel_values(a, name) is not None for name, _, _ in BIG_END_PANELS)
+        plot({"a": a, "b": b}, tmp_path / "compare.png")
+    assert (tmp_path / "compare.png").stat().st_size > 0
 
 
 def test_the_periodic_test_follows_every_lubricated_joint(tmp_path):
