@@ -348,3 +348,55 @@ def test_batch_summary_carries_the_pins_metrics(tmp_path):
             assert math.isnan(float(summary[name].values[1])), name
     record = json.loads((tmp_path / "batch" / "batch_status.json").read_text())["cases"][0]
     assert record["metrics"]["pin_speed_mean"] == pytest.approx(expected["pin_speed_mean"], rel=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.serial
+def test_an_interrupted_floating_pin_run_resumes_to_the_same_answers(tmp_path, monkeypatch):
+    """The reference engine with the floating pin (both films short bearings, 5 deg outputs, three cycles:
+    the periodic tolerance 1e-12 is never met), run straight and stopped at the start of the second cycle
+    then resumed from its checkpoint (the pin's position, angle and speed in the state, the bosses' cycle
+    minima of h_min for the periodic test): the same last cycle, exactly (pin speed and angle, both
+    films' eccentricities, the bosses' h_min history)."""
+    from tests.conftest import interrupt_and_resume
+
+    solver = "max_cycles = 3\nstep_deg = 5\nperiodic_tolerance = 1e-12\n"
+    sections = '[small_end]\npin = "floating"\n'
+    straight = run_case(make_case(tmp_path / "straight", solver, sections), MPI.COMM_SELF)
+    resumed = interrupt_and_resume(make_case(tmp_path / "resumed", solver, sections), monkeypatch, 1)
+    assert straight.cycles == resumed.cycles == 3
+    with xr.open_dataset(straight.results) as a, xr.open_dataset(resumed.results) as b:
+        for name in ("pin_speed", "pin_angle", "ecc_x", "ecc_y", "pin_boss_ecc_x", "pin_boss_ecc_y"):
+            np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+        np.testing.assert_array_equal(
+            np.asarray(a.attrs["history.pin_boss_h_min_min"]),
+            np.asarray(b.attrs["history.pin_boss_h_min_min"]),
+        )
+
+
+@pytest.mark.slow
+@pytest.mark.serial
+def test_extrapolated_cycles_of_a_floating_pin_reach_the_plain_periodic_state(tmp_path):
+    """The floating pin (both films short bearings, 5 deg outputs) to periodic, plainly and with the cycle
+    map's extrapolation (``solver.periodic_acceleration = "mpe"``; the map's state holds the pin's speed,
+    not its turning angle): both periodic, at the same state within the periodic test's tolerances (min
+    h_min of the small end and the bosses within 2 x periodic_tolerance x their clearances, the friction
+    within 1 % (the run's own test: 0.1 % a cycle), the pin's mean speed within 1 rpm: it settles with the
+    friction); tolerances tightened (2e-5 of the clearance) so that the runs take enough cycles for the
+    extrapolation to act."""
+    solver = "max_cycles = 10\nstep_deg = 5\nperiodic_tolerance = 2e-5\nperiodic_friction_tolerance = 0.001\n"
+    sections = '[small_end]\npin = "floating"\n'
+    plain = run_case(make_case(tmp_path / "plain", solver, sections), MPI.COMM_SELF)
+    mpe = run_case(
+        make_case(tmp_path / "mpe", solver + 'periodic_acceleration = "mpe"\n', sections), MPI.COMM_SELF
+    )
+    case = load_case(tmp_path / "plain")
+    print(f"cycles plain {plain.cycles}, mpe {mpe.cycles}")
+    assert plain.periodic and mpe.periodic
+    with xr.open_dataset(mpe.results) as ds:  # the extrapolation acted (a cycle started from it)
+        assert np.max(np.asarray(ds.attrs["history.extrapolated_start"])) == 1
+    tolerance = case.solver.periodic_tolerance
+    assert abs(plain.h_min_min - mpe.h_min_min) < 2 * tolerance * case.small_end.clearance
+    assert abs(plain.pin_boss_h_min_min - mpe.pin_boss_h_min_min) < 2 * tolerance * case.pin_boss.clearance
+    assert mpe.friction_power_mean == pytest.approx(plain.friction_power_mean, rel=0.01)
+    assert abs(plain.pin_speed_mean - mpe.pin_speed_mean) < 1.0 * RPM
