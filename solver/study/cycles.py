@@ -118,14 +118,17 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     )
     prefix = PREFIX[run.lead]
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
-    # the big end's film has none (a rigid Reynolds film, solver.case): nothing of it to commit
-    assert run.big_model is None or not run.big_model.has_history
+    # the big end's film with history (JFO film fraction, Winkler shell) commits alike (in the crankpin's
+    # frame with a hole: JournalFrameFilmJoint.commit)
+    big_history = run.big_has_history
 
     def step_accepted(t: float) -> None:
         """An accepted integrator step: a film history's state at its end starts the rate of the next
         step (implicit Euler over the step, not over the output interval)."""
         if history:
             run.joint.commit(t)
+        if big_history:
+            run.big_joint.commit(t)
 
     def output_accepted(t: float) -> None:
         """An accepted output state: a film history's state there starts the next rate (it replaces the
@@ -133,6 +136,8 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         if history:
             run.committed.append(model.rate_history(t) or None)
             run.joint.commit(t)
+        if big_history:
+            run.big_joint.commit(t)
 
     run.committed = []
     row, qd = outputs.at(t0, q0, qd0)
@@ -309,6 +314,11 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 run.model.commit_history(film_state, time_s)
             if checkpoint.film:  # and the next solve starts where the run's would have: from the cycle's end
                 run.model.start_from(checkpoint.film[-1][1])
+        if run.big_has_history:  # the big end's film alike (an older checkpoint has none: a fresh film)
+            for time_s, film_state in checkpoint.big_end_film:
+                run.big_model.commit_history(film_state, time_s)
+            if checkpoint.big_end_film:
+                run.big_model.start_from(checkpoint.big_end_film[-1][1])
         oil.resume(checkpoint.thermal)
     else:
         first, history, friction = 0, [], []
@@ -429,6 +439,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             film=run.model.committed_history() if run.model is not None else [],
                             elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
                             joint_histories=others,
+                            big_end_film=run.big_model.committed_history() if run.big_has_history else [],
                         ),
                     )
                 saved = index + 1
