@@ -5,7 +5,8 @@ Baumgarte's gains at the crank speed) from output angle to output angle: every o
 end (the cubic dense output is fine for positions but not for the relative velocity of a stiff joint,
 and the film force depends on that velocity). At each output the state's variables are evaluated at
 consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
-stage integrals accumulate (solver.study.energy); a film with history commits its state.
+stage integrals accumulate (solver.study.energy); a film with history (the small end's, the big end's)
+commits its state.
 
 The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else of
 the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next, and
@@ -13,8 +14,9 @@ so does each other lubricated joint's (the big end, a floating pin's bosses: eac
 least two cycles and at most ``solver.max_cycles``; and, when ``solver.periodic_friction_tolerance`` is set,
 the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective" also when
 the cycle's heat balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
-solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the film's
-committed history, so an interrupted run resumes from the last finished cycle.
+solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the films'
+committed histories (the small end's and the big end's), so an interrupted run resumes from the last
+finished cycle.
 An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
 inside the cycles leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint
 is kept.
