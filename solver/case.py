@@ -577,9 +577,10 @@ FIELDS: tuple[FieldSpec, ...] = (
         "ideal",
         choices=BIG_END_JOINTS,
         doc="big-end model (crankpin in the rod's big eye): ideal revolute; Ocvirk short bearing (rigid, "
-        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (rigid eye, the oil, "
-        "cavitation law and max-gap or no inlet of [oil], the roughness of [surface], solver.mesh_size; "
-        'oil.cavitation = "reynolds" only); or dry contact (Hertz stiffness from the moduli of [surface])',
+        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye or a "
+        "Winkler shell, big_end.elastic; the oil, cavitation law (Reynolds or the mass-conserving JFO film, "
+        "its film fraction carried from step to step) and max-gap or no inlet of [oil], the roughness of "
+        "[surface], solver.mesh_size); or dry contact (Hertz stiffness from the moduli of [surface])",
     ),
     _f(
         "big_end",
@@ -655,6 +656,28 @@ FIELDS: tuple[FieldSpec, ...] = (
         unit="deg",
         doc="with supply = hole: the hole's angle on the crankpin from the crank throw (0: the side away "
         "from the crank axis), counter-clockwise as the crank turns; on the mid-plane",
+    ),
+    FieldSpec(
+        "big_end",
+        "elastic",
+        "elastic",
+        str,
+        "none",
+        choices=("none", "winkler"),
+        doc="big-end shell deformation under the film and asperity pressure, as small_end.elastic: none "
+        "(rigid) or winkler (a thin shell of bushing_thickness_mm on a rigid eye, w = k p node by node, "
+        "the moduli surface.E_bushing_GPa, surface.nu_bushing); a mixed-fem big end, inlet none or a "
+        "supply (the finite-element eye is the small end's only)",
+    ),
+    _f(
+        "big_end",
+        "bushing_thickness_mm",
+        "bushing_thickness",
+        1.8,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with elastic = winkler: the big-end shell's wall thickness; <= big_end.radius_mm",
     ),
     # [pin_boss]
     FieldSpec(
@@ -1345,10 +1368,18 @@ class BigEnd:
     supply_pressure: float = _field("big_end", "supply_pressure")  # Pa, gauge
     supply_hole_diameter: float = _field("big_end", "supply_hole_diameter")  # m
     supply_hole_angle: float = _field("big_end", "supply_hole_angle")  # rad, crank frame
+    elastic: str = _field("big_end", "elastic")  # none | winkler
+    bushing_thickness: float = _field("big_end", "bushing_thickness")  # m, the shell's wall
 
     def __post_init__(self) -> None:
         _check_section(self, "big_end")
-        check_geometry(radius=self.radius, width=self.width, clearance=self.clearance, names=BIG_END_LENGTHS)
+        check_geometry(
+            radius=self.radius,
+            width=self.width,
+            clearance=self.clearance,
+            bushing_thickness=None if self.elastic == "none" else self.bushing_thickness,
+            names=BIG_END_LENGTHS,
+        )
 
     @property
     def lubricated(self) -> bool:
@@ -1551,8 +1582,8 @@ def _check_pin(case: Case) -> None:
 
 
 def _check_big_end(case: Case) -> None:
-    """A finite-element big end: the Reynolds film of a rigid eye (its film has no history to carry
-    from cycle to cycle: the mass-conserving film is not offered there yet)."""
+    """A finite-element big end: the film of [oil] (Reynolds or JFO) in a rigid eye or a Winkler shell;
+    a supply hole in the crankpin fed into it."""
     be = case.big_end
     if be.supply == "hole":
         if be.joint != "mixed-fem":
@@ -1578,11 +1609,25 @@ def _check_big_end(case: Case) -> None:
                 f"{be.supply_pressure / BAR:g}",
                 f">= oil.cavitation_pressure_bar = {case.oil.cavitation_pressure / BAR:g}",
             )
-    if case.big_end.joint == "mixed-fem" and case.oil.cavitation != "reynolds":
+    if be.elastic != "none" and be.joint != "mixed-fem":
         raise InputError(
-            f'big_end.joint = "mixed-fem" runs the Reynolds film (allowed with oil.cavitation = "reynolds"; '
-            f"got {case.oil.cavitation!r}; or big_end.joint = 'short-bearing', 'dry', 'ideal')"
+            f"big_end.elastic = {be.elastic!r} deforms the finite-element film's shell (allowed with "
+            f'big_end.joint = "mixed-fem"; got {be.joint!r}; or big_end.elastic = "none")'
         )
+    if be.elastic != "none" and case.oil.inlet == "max-gap":
+        raise InputError(
+            f"big_end.elastic = {be.elastic!r} with oil.inlet = 'max-gap' is out of range: the film's "
+            "history (deformation) cannot turn with the max-gap frame (allowed: oil.inlet 'none', 'hole' "
+            'or a groove; or big_end.elastic = "none")'
+        )
+    if be.joint == "mixed-fem" and case.oil.cavitation == "jfo" and be.supply == "none":
+        # the big end's film takes the oil of [oil] but not the small end's supply
+        if not case.oil.cavitation_pressure < 0:
+            raise InputError(
+                f"oil.cavitation_pressure_bar = {case.oil.cavitation_pressure / BAR:g} with oil.cavitation "
+                "= 'jfo' and a mixed-fem big end without a supply is out of range (allowed: < 0, the edges "
+                'flooded above the cavitation pressure; or big_end.supply = "hole")'
+            )
 
 
 def _check_supply(oil: Oil, small_end: SmallEnd) -> None:

@@ -191,11 +191,12 @@ CASE_LENGTHS = {
     "sigma": Length("sqrt(surface.sigma_pin_um^2 + surface.sigma_bushing_um^2)", "um", composite=True),
     "bushing_thickness": Length("small_end.bushing_thickness_mm", "mm"),
 }
-#: the big end's lengths (its bearing is checked as the small end's, without roughness or bushing)
+#: the big end's lengths (checked as the small end's, without roughness; its shell when elastic)
 BIG_END_LENGTHS = {
     "radius": Length("big_end.radius_mm", "mm"),
     "width": Length("big_end.width_mm", "mm"),
     "clearance": Length("big_end.clearance_um", "um"),
+    "bushing_thickness": Length("big_end.bushing_thickness_mm", "mm"),
 }
 #: the floating pin's film in the piston bosses (checked as the big end's)
 PIN_BOSS_LENGTHS = {

@@ -248,16 +248,23 @@ class JournalFrameFilmJoint(ClearanceJoint):
 
     ``phi = frame_angle(t)``: a function of time alone (the big end: crank angle less the ideal
     mechanism's rod angle at t; the rod's angle in the clearance joint differs from it by ~c / l,
-    1e-4 rad, against a hole of ~0.2 rad). Rigid Reynolds films only (no history to turn).
+    1e-4 rad, against a hole of ~0.2 rad).
+
+    A film with history (the JFO film's film fraction, a Winkler shell's deformation) keeps it on its
+    mesh, in the journal's frame: its rate is the change at a point of that frame, the ``dh/dt`` of the
+    Reynolds equation written in it (the slip of the bushing's surface is in ``omega_f``); a Winkler
+    shell's ``w = k p`` is local, so the shell's deformation at a point is the same whichever surface
+    carries it. ``commit(t)`` commits the film's last evaluated state (FilmJoint.commit).
     """
 
     def __init__(self, film: FilmJoint, frame_angle):
-        if film.model.has_history:
-            raise InputError(
-                "a film solved in the journal's frame has no history (allowed: the rigid Reynolds film)"
-            )
         self.film, self.model, self.frame_angle = film, film.model, frame_angle
         self.OUTPUTS = film.OUTPUTS
+
+    def commit(self, t: float) -> np.ndarray | None:
+        """A film with history: its last evaluated state, at time t, starts the next rate (in the journal's
+        frame, FilmJoint.commit); returns that state's unknowns, or None."""
+        return self.film.commit(t)
 
     def set_viscosity(self, viscosity: float) -> None:
         """The oil's viscosity [Pa s] anew (FilmJoint.set_viscosity)."""
@@ -300,6 +307,10 @@ class JournalFrameFilmJoint(ClearanceJoint):
         turn = math.degrees(float(self.frame_angle(t)))
         if "h_min_angle" in out:
             out["h_min_angle"] = (out["h_min_angle"] + turn) % 360.0
+        if "deformation_max_angle" in out:  # rad
+            out["deformation_max_angle"] = (out["deformation_max_angle"] + float(self.frame_angle(t))) % (
+                2 * math.pi
+            )
         return out
 
 
@@ -677,9 +688,9 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
     the oil of ``[oil]``; the finite-element film (``mixed-fem``: a :class:`FilmJoint` whose ``model`` is
     the film, built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; rigid eye, the oil,
     cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[surface]``, the mesh of
-    ``[solver]``; with ``big_end.supply = "hole"`` the hole in the crankpin, the film solved in the
-    crankpin's frame: a :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from
-    ``[surface]``'s moduli)."""
+    ``[solver]``, the shell of ``big_end.elastic``: rigid or Winkler; with ``big_end.supply = "hole"``
+    the hole in the crankpin, the film solved in the crankpin's frame: a
+    :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from ``[surface]``'s moduli)."""
     be, surf = case.big_end, case.surface
     if be.joint == "ideal":
         return None
@@ -709,6 +720,21 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             from mpi4py import MPI
 
             comm = MPI.COMM_SELF
+        from solver.film.bushings import bushing_model
+
+        se = case.small_end  # (the eye's keys: the FE eye is the small end's only, solver.case)
+        bushing = bushing_model(
+            be.elastic,
+            radius=be.radius,
+            width=be.width,
+            bushing_thickness=be.bushing_thickness,
+            eye_outer_radius=se.eye_outer_radius,
+            E_eye=se.E_eye,
+            nu_eye=se.nu_eye,
+            E_bushing=surf.E_bushing,
+            nu_bushing=surf.nu_bushing,
+            shank_half_angle_deg=math.degrees(se.shank_half_angle),
+        )
         if be.supply == "none":
             model = _film_model(
                 case,
@@ -718,7 +744,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 width=be.width,
                 clearance=be.clearance,
                 supply={},
-                bushing=None,
+                bushing=bushing,
             )
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
@@ -744,7 +770,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 "supply_hole_angle": be.supply_hole_angle,
                 "supply_hole_diameter": be.supply_hole_diameter,
             },
-            bushing=None,
+            bushing=bushing,
             surface=surface,
         )
         return JournalFrameFilmJoint(FilmJoint(model), crankpin_angle_to_rod(engine))

@@ -5,7 +5,8 @@ Baumgarte's gains at the crank speed) from output angle to output angle: every o
 end (the cubic dense output is fine for positions but not for the relative velocity of a stiff joint,
 and the film force depends on that velocity). At each output the state's variables are evaluated at
 consistent velocities (solver.study.outputs), which the next interval starts from; the energy audit's
-stage integrals accumulate (solver.study.energy); a film with history commits its state.
+stage integrals accumulate (solver.study.energy); a film with history (the small end's, the big end's)
+commits its state.
 
 The run stops when the cycle minimum of the film thickness (of the small end when it is lubricated, else of
 the big end) changes by less than ``solver.periodic_tolerance`` x clearance from one cycle to the next, and
@@ -13,8 +14,9 @@ so does each other lubricated joint's (the big end, a floating pin's bosses: eac
 least two cycles and at most ``solver.max_cycles``; and, when ``solver.periodic_friction_tolerance`` is set,
 the cycle-mean friction power by less than that fraction of itself; with oil.thermal = "effective" also when
 the cycle's heat balance closes (solver.study.film_temperature). The checkpoint (``results/checkpoint.npz``,
-solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the film's
-committed history, so an interrupted run resumes from the last finished cycle.
+solver.study.io.Checkpoint) holds the state, the per-cycle histories, the thermal iteration and the films'
+committed histories (the small end's and the big end's), so an interrupted run resumes from the last
+finished cycle.
 An interruption (KeyboardInterrupt: Ctrl-C, or SIGTERM where the command line turns it into one)
 inside the cycles leaves as :class:`RunInterrupted`, which says where the run stopped and which checkpoint
 is kept.
@@ -118,14 +120,17 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     )
     prefix = PREFIX[run.lead]
     history = model is not None and hasattr(run.joint, "commit")  # a film with history commits its states
-    # the big end's film has none (a rigid Reynolds film, solver.case): nothing of it to commit
-    assert run.big_model is None or not run.big_model.has_history
+    # the big end's film with history (JFO film fraction, Winkler shell) commits alike (in the crankpin's
+    # frame with a hole: JournalFrameFilmJoint.commit)
+    big_history = run.big_has_history
 
     def step_accepted(t: float) -> None:
         """An accepted integrator step: a film history's state at its end starts the rate of the next
         step (implicit Euler over the step, not over the output interval)."""
         if history:
             run.joint.commit(t)
+        if big_history:
+            run.big_joint.commit(t)
 
     def output_accepted(t: float) -> None:
         """An accepted output state: a film history's state there starts the next rate (it replaces the
@@ -133,6 +138,8 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         if history:
             run.committed.append(model.rate_history(t) or None)
             run.joint.commit(t)
+        if big_history:
+            run.big_joint.commit(t)
 
     run.committed = []
     row, qd = outputs.at(t0, q0, qd0)
@@ -309,6 +316,11 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 run.model.commit_history(film_state, time_s)
             if checkpoint.film:  # and the next solve starts where the run's would have: from the cycle's end
                 run.model.start_from(checkpoint.film[-1][1])
+        if run.big_has_history:  # the big end's film alike (an older checkpoint has none: a fresh film)
+            for time_s, film_state in checkpoint.big_end_film:
+                run.big_model.commit_history(film_state, time_s)
+            if checkpoint.big_end_film:
+                run.big_model.start_from(checkpoint.big_end_film[-1][1])
         oil.resume(checkpoint.thermal)
     else:
         first, history, friction = 0, [], []
@@ -429,6 +441,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             film=run.model.committed_history() if run.model is not None else [],
                             elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
                             joint_histories=others,
+                            big_end_film=run.big_model.committed_history() if run.big_has_history else [],
                         ),
                     )
                 saved = index + 1

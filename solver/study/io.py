@@ -310,6 +310,8 @@ class Checkpoint:
             worked on it (a resumed run's wall time goes on from it).
         joint_histories: m, the min h_min of each cycle done of the other lubricated joints, by name
             (``big_end``, ``pin_boss``; the periodic test follows them too).
+        big_end_film: the big end's film's committed history states as ``film`` ([] for a big end
+            without history; read as [] from an older checkpoint).
     """
 
     fingerprint: str
@@ -324,13 +326,20 @@ class Checkpoint:
     film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
     elapsed_s: float = 0.0
     joint_histories: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    big_end_film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
+
+
+def _history_arrays(film: list[tuple[float, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """(times, states) of a film's committed history, for the checkpoint."""
+    times = np.array([time for time, _ in film], dtype=float)
+    states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
+    return times, states
 
 
 def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
     """Write a checkpoint (atomic)."""
-    film = checkpoint.film or []
-    film_times = np.array([time for time, _ in film], dtype=float)
-    film_states = np.array([state for _, state in film], dtype=float) if film else np.zeros((0, 0))
+    film_times, film_states = _history_arrays(checkpoint.film or [])
+    big_times, big_states = _history_arrays(checkpoint.big_end_film or [])
     with atomic_path(path) as part:
         with open(part, "wb") as stream:
             np.savez(
@@ -350,6 +359,8 @@ def write_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
                 joint_histories=json.dumps(
                     {k: list(map(float, v)) for k, v in checkpoint.joint_histories.items()}
                 ),
+                big_end_film_times=big_times,
+                big_end_film_states=big_states,
             )
 
 
@@ -395,6 +406,11 @@ def read_checkpoint(path: Path, fingerprint: str) -> Checkpoint | None:
                     else float(sum(t.get("wall_s", 0.0) for t in timings))
                 ),
                 joint_histories=json.loads(str(data["joint_histories"])) if "joint_histories" in data else {},
+                big_end_film=(
+                    list(zip(data["big_end_film_times"].tolist(), data["big_end_film_states"].copy()))
+                    if "big_end_film_times" in data
+                    else []
+                ),
             )
     except (OSError, KeyError, ValueError) as err:
         log.warning("unreadable checkpoint %s (%s): starting afresh", path, err)

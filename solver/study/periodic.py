@@ -34,6 +34,10 @@ start); a combination with any |alpha_j| above MAX_COEFFICIENT is refused (the p
 committed history is moved by the same correction as its last state, so that the first step's rate
 (BDF2 through the committed states) stays the cycle's own.
 
+With a big end whose film has history (JFO, a Winkler shell) the extrapolation is off (plain cycles):
+that film's state is not one of the parts combined here; its committed history goes on from cycle to
+cycle (and in the checkpoint) as the small end's does.
+
 The periodic test (solver.study.cycles) is the plain one, on consecutive cycles of the iteration:
 with the extrapolation it starts from the third cycle, each cycle from the extrapolation of the last
 three (the first cycle's pair, from the pin centred in a full film, takes a small coefficient).
@@ -115,6 +119,13 @@ class CycleMap:
     """
 
     def __init__(self, run, acceleration: str = "none"):
+        if acceleration != "none" and getattr(run, "big_has_history", False):
+            # the big end's film history (JFO, Winkler) is not part of the state combined here: plain cycles
+            log.info(
+                "solver.periodic_acceleration = %r: not with the big end's film history (plain cycles)",
+                acceleration,
+            )
+            acceleration = "none"
         self.run, self.acceleration = run, acceleration
         model = run.model
         self.film_nodes = model.space.n if model is not None and model.has_history else 0

@@ -140,6 +140,19 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "big_end_squeeze_power": ("W", "big end: power of the joint force on the relative motion, -F . de/dt"),
     "big_end_side_flow": ("m3 s-1", "big end: oil volume flow out of both edges"),
     "big_end_dissipated_power": ("W", "big end: power dissipated in the joint (friction + squeeze)"),
+    "big_end_oil_volume": (
+        "m3",
+        "big end: oil held in the film, as oil_volume (mixed-fem with oil.cavitation = jfo; NaN otherwise)",
+    ),
+    "big_end_deformation_max": (
+        "m",
+        "big end: largest radial deformation of the shell's surface, as deformation_max (mixed-fem; 0: "
+        "rigid, big_end.elastic)",
+    ),
+    "big_end_deformation_max_angle": (
+        "rad",
+        "big end: rod-frame angle of big_end_deformation_max, as deformation_max_angle",
+    ),
     # the full-floating pin (small_end.pin = "floating"; NaN for a fixed pin): its rotation, the torques of
     # both films on it, and its film in the piston bosses ([pin_boss]) as the small end's, in the piston
     # frame (= the global frame: the piston does not turn)

@@ -80,6 +80,9 @@ class Run:
         # None: an ideal big end; a FilmJoint (big_end.joint = "mixed-fem") has its film as ``model``
         self.big_joint = big_end_joint_from_case(case, self.engine, comm)
         self.big_model = getattr(self.big_joint, "model", None)
+        # the big end's film carries a history (JFO film fraction, Winkler shell): committed as the small
+        # end's (solver.study.cycles), kept in the checkpoint; the cycle map does not extrapolate then
+        self.big_has_history = self.big_model is not None and self.big_model.has_history
         self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
         pin = None
         if self.boss_joint is not None:

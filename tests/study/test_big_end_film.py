@@ -316,8 +316,19 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
 @pytest.mark.parametrize(
     ("big_end", "oil", "field"),
     [
-        ('joint = "mixed-fem"\n', 'cavitation = "jfo"\n', "big_end.joint"),
-        ('joint = "mixed-fem"\nelastic = "winkler"\n', "", "big_end.elastic"),
+        ('joint = "short-bearing"\nelastic = "winkler"\n', "", "big_end.elastic"),
+        ('joint = "mixed-fem"\nelastic = "fe"\n', "", "big_end.elastic"),
+        ('joint = "mixed-fem"\nelastic = "winkler"\n', 'inlet = "max-gap"\n', "big_end.elastic"),
+        (
+            'joint = "mixed-fem"\nelastic = "winkler"\nbushing_thickness_mm = 30\n',
+            "",
+            "big_end.bushing_thickness_mm",
+        ),
+        (
+            'joint = "mixed-fem"\n',
+            'cavitation = "jfo"\ncavitation_pressure_bar = 0.0\ninlet = "hole"\n',
+            "oil.cavitation_pressure_bar",
+        ),
         ('joint = "hydro"\n', "", "big_end.joint"),
         ('joint = "short-bearing"\nsupply = "hole"\n', "", "big_end.supply"),
         (HOLE, 'inlet = "max-gap"\n', "big_end.supply"),
@@ -327,14 +338,16 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
     ],
 )
 def test_bad_big_end_film_keys_are_one_line_errors(tmp_path, big_end, oil, field):
-    """A FE big end with the mass-conserving film, an elastic big end (no such key), an unknown model, a
+    """An elastic big end without the FE film, with the FE eye (the small end's only), with the max-gap
+    inlet or a shell thicker than the crankpin's radius; a JFO big end whose edges are sealed (cavitation
+    pressure 0, no supply of its own: the small end's hole does not feed it); an unknown model, a
     crankpin hole without the FE film or with the max-gap inlet, too wide or below ambient, an unknown
     supply: an InputError of one line naming the key."""
     case_dir = make_case(tmp_path / "bad", 'joint = "ideal"\n', big_end)
     if oil:
         text = (case_dir / "case.toml").read_text()
-        key = oil.split("=")[0].strip()
-        text = "\n".join(line for line in text.split("\n") if not line.startswith(key + " "))
+        keys = [line.split("=")[0].strip() for line in oil.splitlines()]
+        text = "\n".join(line for line in text.split("\n") if not any(line.startswith(k + " ") for k in keys))
         text = text.replace("[oil]\n", "[oil]\n" + oil, 1)
         (case_dir / "case.toml").write_text(text)
     with pytest.raises(InputError) as error:
