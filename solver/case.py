@@ -25,7 +25,7 @@ import dataclasses
 import difflib
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -580,7 +580,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye or a "
         "Winkler shell, big_end.elastic; the oil, cavitation law (Reynolds or the mass-conserving JFO film, "
         "its film fraction carried from step to step) and max-gap or no inlet of [oil], the roughness of "
-        "[surface], solver.mesh_size); or dry contact (Hertz stiffness from the moduli of [surface])",
+        "[big_end_surface], solver.mesh_size); or dry contact (Hertz stiffness from the moduli of "
+        "[big_end_surface])",
     ),
     _f(
         "big_end",
@@ -666,8 +667,8 @@ FIELDS: tuple[FieldSpec, ...] = (
         choices=("none", "winkler"),
         doc="big-end shell deformation under the film and asperity pressure, as small_end.elastic: none "
         "(rigid) or winkler (a thin shell of bushing_thickness_mm on a rigid eye, w = k p node by node, "
-        "the moduli surface.E_bushing_GPa, surface.nu_bushing); a mixed-fem big end, inlet none or a "
-        "supply (the finite-element eye is the small end's only)",
+        "the moduli big_end_surface.E_bushing_GPa, big_end_surface.nu_bushing); a mixed-fem big end, "
+        "inlet none or a supply (the finite-element eye is the small end's only)",
     ),
     _f(
         "big_end",
@@ -1197,7 +1198,30 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
 )
 
-SECTIONS = ("engine", "gas", "small_end", "big_end", "pin_boss", "oil", "surface", "solver")
+# [big_end_surface]: the big end's (crankpin: pin_* keys; the big eye's shell: bushing_* keys), the keys of
+# [surface] with the same names, units and ranges; a key the section does not give takes the case's [surface]
+# value (load_case)
+FIELDS = (
+    tuple(spec for spec in FIELDS if spec.section != "solver")
+    + tuple(
+        dataclasses.replace(spec, section="big_end_surface") for spec in FIELDS if spec.section == "surface"
+    )
+    + tuple(spec for spec in FIELDS if spec.section == "solver")
+)
+
+SECTIONS = (
+    "engine",
+    "gas",
+    "small_end",
+    "big_end",
+    "pin_boss",
+    "oil",
+    "surface",
+    "big_end_surface",
+    "solver",
+)
+#: Sections whose absent keys are another section's values, not the defaults (not counted as defaulted).
+INHERITED = {"big_end_surface": "surface"}
 
 
 def _specs(section: str) -> tuple[FieldSpec, ...]:
@@ -1454,7 +1478,10 @@ class Oil:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Surface:
-    """Roughness, asperity contact and elastic constants (SI)."""
+    """Roughness, asperity contact and elastic constants (SI): the case's ``[surface]`` (the small end's pin
+    and bushing, the floating pin's bosses); :class:`BigEndSurface` is the big end's."""
+
+    section: ClassVar[str] = "surface"
 
     sigma_pin: float = _field("surface", "sigma_pin")  # m, Rq
     sigma_bushing: float = _field("surface", "sigma_bushing")  # m, Rq
@@ -1471,10 +1498,10 @@ class Surface:
     impact_speed: float = _field("surface", "impact_speed")  # m/s
 
     def __post_init__(self) -> None:
-        _check_section(self, "surface")
+        _check_section(self, self.section)
         if not self.sigma > 0.0:
             raise InputError(
-                "surface.sigma_pin_um and surface.sigma_bushing_um are both 0 "
+                f"{self.section}.sigma_pin_um and {self.section}.sigma_bushing_um are both 0 "
                 "(allowed: composite roughness > 0)"
             )
 
@@ -1482,6 +1509,15 @@ class Surface:
     def sigma(self) -> float:
         """m, composite roughness sqrt(sigma_pin^2 + sigma_bushing^2)."""
         return math.hypot(self.sigma_pin, self.sigma_bushing)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class BigEndSurface(Surface):
+    """The big end's surface (``[big_end_surface]``): the crankpin (pin_* keys) and the big eye's shell
+    (bushing_* keys), the keys, units and ranges of :class:`Surface`; messages name
+    ``big_end_surface.<key>``."""
+
+    section: ClassVar[str] = "big_end_surface"
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1520,7 +1556,9 @@ class Case:
         directory: the case directory (relative file names are resolved against it; results go to
             ``directory / "results"``).
         description: free text.
-        engine, gas, small_end, big_end, pin_boss, oil, surface, solver: the sections.
+        engine, gas, small_end, big_end, pin_boss, oil, surface, big_end_surface, solver: the sections
+            (``big_end_surface``: the big end's surface; load_case fills the keys its section does not
+            give from ``[surface]``; built directly, its default is the defaults of Surface).
         defaulted: the sections the case file does not have (their defaults are used: all of them
             for an empty file, which is the reference engine); not a parameter of the case.
     """
@@ -1535,6 +1573,7 @@ class Case:
     pin_boss: PinBoss = dataclasses.field(default_factory=PinBoss)
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
+    big_end_surface: Surface = dataclasses.field(default_factory=BigEndSurface)
     solver: Solver = dataclasses.field(default_factory=Solver)
     defaulted: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)
 
@@ -1663,6 +1702,7 @@ _SECTION_CLASSES = {
     "pin_boss": PinBoss,
     "oil": Oil,
     "surface": Surface,
+    "big_end_surface": BigEndSurface,
     "solver": Solver,
 }
 
@@ -1736,6 +1776,8 @@ def load_case(path: str | Path) -> Case:
 
     for section, cls in _SECTION_CLASSES.items():
         table = data.get(section, {})
+        if section in INHERITED:  # the keys not given: the other section's (given or default), same names
+            table = {**data.get(INHERITED[section], {}), **table}
         specs = {spec.key: spec for spec in _specs(section)}
         arguments: dict[str, Any] = {}
         for key, value in table.items():
@@ -1761,7 +1803,7 @@ def load_case(path: str | Path) -> Case:
                 arguments["peak_pressure"] = None
             arguments.setdefault("model", "trace" if "pressure_file" in arguments else "single-zone")
         values[section] = cls(**arguments)
-    defaulted = tuple(section for section in SECTIONS if section not in data)
+    defaulted = tuple(section for section in SECTIONS if section not in data and section not in INHERITED)
     return Case(directory=directory, defaulted=defaulted, **values)
 
 
@@ -1770,7 +1812,7 @@ def defaults_note(case: Case) -> str | None:
     if not case.defaulted:
         return None
     sections = ", ".join(f"[{section}]" for section in case.defaulted)
-    if len(case.defaulted) == len(SECTIONS):
+    if len(case.defaulted) == len(SECTIONS) - len(INHERITED):
         return f"the case file has no section: every default is used, the reference engine ({sections})"
     return f"sections not in the case file, defaults used: {sections}"
 

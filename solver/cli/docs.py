@@ -43,6 +43,8 @@ _SECTIONS = {
     '(`small_end.pin = "floating"`)',
     "oil": "`[oil]`: the oil, its temperature, cavitation and supply",
     "surface": "`[surface]`: roughness, asperity contact and the dry joint",
+    "big_end_surface": "`[big_end_surface]`: the big end's surface: crankpin (pin_* keys) and the big eye's "
+    "shell (bushing_* keys); a key not given takes the value of `[surface]` (given or default)",
     "solver": "`[solver]`: joint model, mesh, tolerances, cycles and outputs",
 }
 

@@ -687,11 +687,13 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
     crankpin (journal, turning with the crank) in the rod's big eye (bushing): Ocvirk's short bearing in
     the oil of ``[oil]``; the finite-element film (``mixed-fem``: a :class:`FilmJoint` whose ``model`` is
     the film, built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; rigid eye, the oil,
-    cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[surface]``, the mesh of
+    cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[big_end_surface]``, the mesh of
     ``[solver]``, the shell of ``big_end.elastic``: rigid or Winkler; with ``big_end.supply = "hole"``
     the hole in the crankpin, the film solved in the crankpin's frame: a
-    :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from ``[surface]``'s moduli)."""
-    be, surf = case.big_end, case.surface
+    :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from ``[big_end_surface]``'s
+    moduli). The big end's surface (``case.big_end_surface``: the crankpin is its pin, the big eye's shell
+    its bushing) is its own; the small end and the pin's bosses keep ``[surface]``."""
+    be, surf = case.big_end, case.big_end_surface
     if be.joint == "ideal":
         return None
     if be.joint == "short-bearing":
@@ -745,6 +747,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 clearance=be.clearance,
                 supply={},
                 bushing=bushing,
+                surface=surface_from_case(surf),
             )
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged

@@ -44,7 +44,7 @@ import numpy as np
 import xarray as xr
 
 from solver import __version__
-from solver.case import FIELDS
+from solver.case import FIELDS, INHERITED
 from solver.errors import InputError, read_toml_file
 from solver.study import io
 from solver.study.results import pin_speed_mean
@@ -135,6 +135,9 @@ def case_parameters(case_dir: Path) -> dict[str, Any] | None:
         if not spec.section:
             continue
         table = data.get(spec.section, {})
+        if spec.section in INHERITED and isinstance(table, dict):  # the keys not given: [surface]'s
+            inherited = data.get(INHERITED[spec.section], {})
+            table = {**(inherited if isinstance(inherited, dict) else {}), **table}
         value = table.get(spec.key, spec.default) if isinstance(table, dict) else spec.default
         if value is None:
             continue

@@ -139,7 +139,7 @@ def test_the_winkler_big_end_follows_the_winkler_law_and_closes_its_energy(tmp_p
     with xr.open_dataset(summary.results) as ds:
         ds = ds.load()
     assert ds.attrs["big_end.elastic"] == "winkler"
-    E, nu, t = ds.attrs["surface.E_bushing_GPa"] * 1e9, ds.attrs["surface.nu_bushing"], 1.8e-3
+    E, nu, t = ds.attrs["big_end_surface.E_bushing_GPa"] * 1e9, ds.attrs["big_end_surface.nu_bushing"], 1.8e-3
     k = t * (1 + nu) * (1 - 2 * nu) / (E * (1 - nu))
     w = ds.big_end_deformation_max.values
     free = ds.big_end_contact_area_ratio.values == 0
