@@ -1106,6 +1106,18 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="film element size / pin radius; when absent 0.07, and at least 10 elements across the "
         "half width",
     ),
+    _f(
+        "solver",
+        "mesh_edge_size",
+        "mesh_edge_size",
+        None,
+        1.0,
+        0.0,
+        1.0,
+        doc="film element size / pin radius at the bushing's edges, graded to mesh_size over 0.3 R (absent: "
+        "uniform); where the film cavitates below the edges' ambient pressure oil is drawn in through a "
+        "layer at the edges (docs/verification.md)",
+    ),
     _f("solver", "rtol", "rtol", 1e-6, 1.0, 0.0, 0.01, doc="relative tolerance of the time integration"),
     FieldSpec(
         "solver",
@@ -1529,6 +1541,7 @@ class Solver:
     mesh_size: float | None = _field(
         "solver", "mesh_size"
     )  # element size / pin radius; None: the film's default
+    mesh_edge_size: float | None = _field("solver", "mesh_edge_size")  # element size / R at the edges
     rtol: float = _field("solver", "rtol")
     film_fraction_transport: str = "limited"  # limited | upwind (solver.film.jfo)
     max_cycles: int = 4

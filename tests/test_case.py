@@ -230,6 +230,7 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
             r"^small_end.eye_outer_radius_mm = 11 is out",
         ),
         ('[oil]\npiezoviscosity = "linear"\n', r"^oil.piezoviscosity = 'linear' is out of range"),
+        ("[solver]\nmesh_edge_size = 2\n", r"^solver.mesh_edge_size = 2 is out of range"),
     ],
 )
 def test_bad_values_give_one_line_errors_naming_the_field(tmp_path, text, message):
@@ -282,3 +283,26 @@ def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     hot = load_case(write_case(tmp_path / "hot", '[oil]\ngrade = "5W-30"\ntemperature_C = 120\n'))
     assert hot.oil.viscosity < grade.oil.viscosity
     assert load_case(write_case(tmp_path / "plain", "")).oil.viscosity == 0.010  # the reference default
+
+
+def test_the_edge_mesh_size_reaches_the_films_mesh(tmp_path, monkeypatch):
+    """``solver.mesh_edge_size`` is handed to the small end's film (its FilmSpec, through the film
+    factory, here a stand-in that records the spec), absent: None (the uniform mesh, every case as it was)."""
+    from mpi4py import MPI
+
+    import solver.film.factory as factory
+    from solver.dynamics.engine import engine_from_case
+    from solver.dynamics.joint import joint_from_case
+
+    seen = []
+
+    def record(spec, comm):
+        seen.append(spec)
+        raise RuntimeError("stand-in")
+
+    monkeypatch.setattr(factory, "make_film", record)
+    for text, expected in (("[solver]\nmesh_edge_size = 0.033\n", 0.033), ("", None)):
+        case = load_case(write_case(tmp_path / f"c{len(seen)}", text))
+        with pytest.raises(RuntimeError, match="stand-in"):
+            joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
+        assert seen[-1].mesh_edge_size == expected

@@ -621,6 +621,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="element size / radius (default: 0.07, and at least 10 elements across the half width)",
     )
     n.add_argument(
+        "--mesh-edge-size",
+        type=_number("--mesh-edge-size", 0, 1, high_open=False, allowed="(0, 1] (element size / R)"),
+        default=None,
+        help="element size / radius at the edges, graded to --mesh-size over 0.3 R (default: uniform); "
+        "where the film cavitates below the edges' ambient pressure oil is drawn in at the edges",
+    )
+    n.add_argument(
         "--degree", type=int, choices=(1, 2), default=1, help="pressure element degree (default 1)"
     )
     n.add_argument("--json", action="store_true", help="print one JSON object")
@@ -761,6 +768,7 @@ def film_spec(args, bearing, surface, omega_ref: float, sliding: float, quasi_st
         bearing=bearing,
         omega_ref=omega_ref,
         mesh_size=args.mesh_size,
+        mesh_edge_size=getattr(args, "mesh_edge_size", None),
         degree=args.degree,
         roughness=surface.roughness(),
         contact=surface.contact(),

@@ -654,6 +654,7 @@ def _film_model(case: Case, engine, comm, *, radius, width, clearance, supply: d
         bearing=bearing,
         omega_ref=engine.crank_motion.speed,
         mesh_size=solver.mesh_size,
+        mesh_edge_size=solver.mesh_edge_size,
         roughness=surface.roughness(),
         contact=surface.contact(),
         slip_regularisation=solver.slip_regularisation,

@@ -54,6 +54,11 @@ class FilmMeshSpec:
     supply: Supply | None = None  # the oil supply, tagged ``supply`` (None: none)
     order: int = 1  # geometry order of the triangles (1 or 2)
     half: bool = False  # mesh only z >= 0 (symmetric film, see the module docstring)
+    #: element size / R at the edges z = +-B/2 (None: element_size everywhere), growing linearly to
+    #: element_size over ``edge_layer`` / R from them (where a film cavitates next to flooded edges oil
+    #: is drawn in through a layer about one element wide: docs/verification.md)
+    edge_size: float | None = None
+    edge_layer: float = 0.3
 
     def __post_init__(self) -> None:
         if not self.width > 0:
@@ -62,6 +67,14 @@ class FilmMeshSpec:
             raise out_of_range("mesh size (element size / radius)", self.element_size, "(0, 1]")
         if self.order not in (1, 2):
             raise out_of_range("mesh order", self.order, "1 or 2")
+        if self.edge_size is not None and not 0 < self.edge_size <= self.element_size:
+            raise out_of_range(
+                "edge mesh size (element size at the edges / radius)",
+                self.edge_size,
+                f"(0, {self.element_size:g}], at most the element size",
+            )
+        if not self.edge_layer > 0:
+            raise out_of_range("edge layer / radius", self.edge_layer, "> 0")
         if self.supply is not None:
             if not isinstance(self.supply, Supply):
                 raise InputError(
@@ -168,6 +181,21 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         gmsh.model.mesh.setSize(
             gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True), rim
         )
+    if spec.edge_size is not None and spec.edge_size < spec.element_size:  # graded toward the edges
+        field = gmsh.model.mesh.field
+        distance = field.add("Distance")
+        field.setNumbers(distance, "EdgesList", edges["edge_minus"] + edges["edge_plus"])
+        field.setNumber(distance, "NNodesByEdge", 400)
+        threshold = field.add("Threshold")
+        field.setNumber(threshold, "InField", distance)
+        field.setNumber(threshold, "LcMin", spec.edge_size)
+        field.setNumber(threshold, "LcMax", spec.element_size)
+        field.setNumber(threshold, "DistMin", 0.0)
+        field.setNumber(threshold, "DistMax", spec.edge_layer)
+        field.setAsBackgroundMesh(threshold)
+        low = gmsh.option.getNumber("Mesh.CharacteristicLengthMin")
+        gmsh.option.setNumber("Mesh.CharacteristicLengthMin", min(low, spec.edge_size))
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
     gmsh.model.mesh.generate(2)
     if spec.order == 2:

@@ -50,8 +50,13 @@ class FilmSpace:
         # symmetric about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and
         # every integral over the film is doubled (solver.film.mesh)
         mesh_size = spec.mesh_size if spec.mesh_size is not None else default_mesh_size(bearing.width, R)
+        edge_size = spec.mesh_edge_size
         self.mesh_spec = FilmMeshSpec(
-            width=bearing.width / R, element_size=mesh_size, supply=bearing.supply, half=spec.half
+            width=bearing.width / R,
+            element_size=mesh_size,
+            supply=bearing.supply,
+            half=spec.half,
+            edge_size=None if edge_size is None else min(edge_size, mesh_size),
         )
         self.mesh, self.cell_tags, self.facet_tags = film_mesh(self.mesh_spec, comm)
         self.comm = self.mesh.comm

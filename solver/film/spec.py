@@ -25,6 +25,8 @@ class FilmSpec:
         bearing: geometry and oil.
         omega_ref: reference angular speed of the scaling [rad/s].
         mesh_size: element size / R (None: default_mesh_size of the bearing).
+        mesh_edge_size: element size / R at the bushing's edges, graded to mesh_size over 0.3 R (None:
+            uniform; solver.film.mesh.FilmMeshSpec.edge_size).
         degree: polynomial degree of the pressure (1 or 2).
         roughness: Patir-Cheng flow factors (solver.film.flow_factors.PatirCheng); None: smooth film.
         contact: Greenwood-Tripp asperity contact (solver.film.contact.GreenwoodTripp); None: no contact.
@@ -49,6 +51,7 @@ class FilmSpec:
     bearing: Bearing
     omega_ref: float
     mesh_size: float | None = None
+    mesh_edge_size: float | None = None
     degree: int = 1
     roughness: Any = None
     contact: Any = None

@@ -130,9 +130,44 @@ def test_groove_cells_are_the_groove(comm, groove, half):
         dict(width=1.0, supply=AxialGroove(angle=math.nan, arc=1.0, length=0.5)),
         dict(width=1.0, supply=CircumferentialGroove(width=1.0)),
         dict(width=1.0, supply=CircumferentialGroove(width=-0.1), half=True),
+        dict(width=1.0, element_size=0.1, edge_size=0.2),
+        dict(width=1.0, element_size=0.1, edge_size=0.0),
+        dict(width=1.0, element_size=0.1, edge_size=0.05, edge_layer=0.0),
     ],
 )
 def test_bad_mesh_spec_is_input_error(kwargs):
     with pytest.raises(InputError, match="out of range") as caught:
         FilmMeshSpec(**kwargs)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("half", [False, True])
+def test_a_mesh_graded_toward_the_edges_has_the_asked_sizes(comm, half):
+    """``edge_size`` 0.025 at the edges, ``element_size`` 0.1 beyond ``edge_layer`` 0.3: the cells touching
+    an edge have edges of about 0.025 (their mean within 25 % of it: gmsh's sizes are targets), the
+    cells farther than 0.3 from both edges about 0.1 (mean within 25 %), the area is still the cylinder's
+    (the chord error at the coarsest size, 1e-3 x (0.1/0.05)^2); a uniform mesh of the same element size
+    has fewer cells."""
+    width = 2.0
+    spec = FilmMeshSpec(width=width, element_size=0.1, edge_size=0.025, edge_layer=0.3, half=half)
+    mesh, _, _ = film_mesh(spec, comm)
+    uniform, _, _ = film_mesh(FilmMeshSpec(width=width, element_size=0.1, half=half), comm)
+    one = fem.Constant(mesh, 1.0)
+    area = _integrate(mesh, one, ufl.dx(domain=mesh))
+    assert area == pytest.approx(2 * math.pi * width * (0.5 if half else 1.0), rel=4e-3)
+    x = mesh.geometry.x
+    cells = mesh.geometry.dofmap.array.reshape(-1, 3)
+    points = x[cells]  # (cell, 3 nodes, xyz)
+    edge_lengths = np.linalg.norm(points - np.roll(points, 1, axis=1), axis=2).mean(axis=1)
+    distance = width / 2 - np.abs(points[:, :, 2]).max(axis=1)  # of the cell's nearest node to an edge
+    far = width / 2 - np.abs(points[:, :, 2]).max(axis=1) > 0.35
+    near = distance < 1e-9
+    sizes = [
+        comm.allreduce(float(edge_lengths[m].sum()), op=MPI.SUM) / comm.allreduce(int(m.sum()), op=MPI.SUM)
+        for m in (near, far)
+    ]
+    assert sizes[0] == pytest.approx(0.025, rel=0.25), sizes
+    assert sizes[1] == pytest.approx(0.1, rel=0.25), sizes
+    count = comm.allreduce(mesh.topology.index_map(2).size_local, op=MPI.SUM)
+    assert count > comm.allreduce(uniform.topology.index_map(2).size_local, op=MPI.SUM)
