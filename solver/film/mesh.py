@@ -181,7 +181,11 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         gmsh.model.mesh.setSize(
             gmsh.model.getBoundary([(2, s) for s in supply_surfaces], recursive=True), rim
         )
-    if spec.edge_size is not None and spec.edge_size < spec.element_size:  # graded toward the edges
+    graded = spec.edge_size is not None and spec.edge_size < spec.element_size
+    # gmsh's options outlive the model: set the size's extension from the boundary for every mesh (its
+    # default, 1, unless graded), so that a graded mesh does not change the next uniform one
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0 if graded else 1)
+    if graded:  # toward the edges
         field = gmsh.model.mesh.field
         distance = field.add("Distance")
         field.setNumbers(distance, "EdgesList", edges["edge_minus"] + edges["edge_plus"])
@@ -195,7 +199,6 @@ def _build_gmsh_model(spec: FilmMeshSpec) -> None:
         field.setAsBackgroundMesh(threshold)
         low = gmsh.option.getNumber("Mesh.CharacteristicLengthMin")
         gmsh.option.setNumber("Mesh.CharacteristicLengthMin", min(low, spec.edge_size))
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
     gmsh.model.mesh.generate(2)
     if spec.order == 2:
