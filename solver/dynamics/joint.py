@@ -723,20 +723,13 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             from mpi4py import MPI
 
             comm = MPI.COMM_SELF
-        from solver.film.bushings import bushing_model
+        from solver.film.bushings import WinklerLayer
 
-        se = case.small_end  # (the eye's keys: the FE eye is the small end's only, solver.case)
-        bushing = bushing_model(
-            be.elastic,
-            radius=be.radius,
-            width=be.width,
-            bushing_thickness=be.bushing_thickness,
-            eye_outer_radius=se.eye_outer_radius,
-            E_eye=se.E_eye,
-            nu_eye=se.nu_eye,
-            E_bushing=surf.E_bushing,
-            nu_bushing=surf.nu_bushing,
-            shank_half_angle_deg=math.degrees(se.shank_half_angle),
+        # the shell: rigid or a Winkler layer (the FE eye is the small end's only, solver.case)
+        bushing = (
+            WinklerLayer(thickness=be.bushing_thickness, E=surf.E_bushing, nu=surf.nu_bushing)
+            if be.elastic == "winkler"
+            else None
         )
         if be.supply == "none":
             model = _film_model(
