@@ -577,11 +577,11 @@ FIELDS: tuple[FieldSpec, ...] = (
         "ideal",
         choices=BIG_END_JOINTS,
         doc="big-end model (crankpin in the rod's big eye): ideal revolute; Ocvirk short bearing (rigid, "
-        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye or a "
-        "Winkler shell, big_end.elastic; the oil, cavitation law (Reynolds or the mass-conserving JFO film, "
-        "its film fraction carried from step to step) and max-gap or no inlet of [oil], the roughness of "
-        "[big_end_surface], solver.mesh_size); or dry contact (Hertz stiffness from the moduli of "
-        "[big_end_surface])",
+        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye, a "
+        "Winkler shell or the finite-element eye, big_end.elastic; the oil, cavitation law (Reynolds or "
+        "the mass-conserving JFO film, its film fraction carried from step to step) and max-gap or no inlet "
+        "of [oil], the roughness of [big_end_surface], solver.mesh_size); or dry contact (Hertz stiffness "
+        "from the moduli of [big_end_surface])",
     ),
     _f(
         "big_end",
