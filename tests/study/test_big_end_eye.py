@@ -54,10 +54,9 @@ def test_the_rod_frame_points_from_the_big_end_to_the_small_end(tmp_path):
 def test_the_big_eye_is_the_small_end_eye_turned_toward_the_small_end(tmp_path):
     """The big eye of ``[big_end]``'s keys is the eye written out here (crankpin radius 24 mm, width 20,
     shell 1.8 mm of [big_end_surface]'s moduli, eye 37 mm, steel, a 30 deg clamp at 0 deg; to rounding),
-    and its
-    compliance (coarse: 24 x 3 hats, 0.5 R elements, a few seconds) equals that of the same eye with the
-    small end's shank (180 deg) turned by half a turn: the matrices within 1e-3 of their largest entry
-    (the two meshes differ, gmsh does not mesh a turned eye as the turned mesh; measured 2.2e-4, while a
+    and its compliance (coarse: 24 x 3 hats, 0.5 R elements, a few seconds) equals that of the same eye
+    with the small end's shank (180 deg) turned by half a turn: the matrices within 1e-3 of their largest
+    entry (the two meshes differ, gmsh does not mesh a turned eye as the turned mesh; measured 2.2e-4, while a
     clamp at the wrong end differs by O(1)). Under a uniform pressure the bore moves least at the shank
     (0 deg) and most opposite it (180 deg). The two eyes have different cache keys (the disk cache of the
     small end's and the big end's eyes cannot collide)."""
