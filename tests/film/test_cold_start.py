@@ -38,7 +38,8 @@ def _film(piezoviscosity: str):
     case = dataclasses.replace(
         case,
         oil=dataclasses.replace(case.oil, piezoviscosity=piezoviscosity),
-        solver=dataclasses.replace(case.solver, mesh_size=0.067),
+        # the uniform 0.067 R film of the run that showed it (the case is graded toward its edges since)
+        solver=dataclasses.replace(case.solver, mesh_size=0.067, mesh_edge_size=None),
     )
     _, model = joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
     return model
