@@ -213,12 +213,57 @@ def test_the_checkpoint_keeps_the_big_ends_history_and_reads_an_older_one_as_emp
 
 
 @pytest.mark.serial
-def test_the_cycle_map_does_not_extrapolate_with_the_big_ends_history():
-    """solver.periodic_acceleration = "mpe" with a big end whose film has history: plain cycles (its film
-    state is not one of the extrapolated parts); without that history the extrapolation stays on."""
-    from types import SimpleNamespace
+def test_the_cycle_map_extrapolates_the_big_ends_film_admissibly(tmp_path):
+    """The cycle map of a JFO big end with a Winkler shell (the small end ideal) with
+    ``periodic_acceleration = "mpe"``: the big end's film fraction and deformation are parts of the
+    state; on cycles of a linear map of that film (the mechanism at rest, ``x -> x* + 0.5 (x - x*)``,
+    u < 0 at every node so that theta = 1 + u is linear too) the extrapolation of two pairs is Aitken's,
+    alpha = (-1, 2), which lands on x* (closed form); x* has film fractions below 0 at some nodes, which
+    the extrapolated start clips to 0 (u = -1) and leaves elsewhere, and the committed history is moved by
+    the same correction. 1e-12: round-off of states of order 1. The per-cycle changes are the largest
+    change of theta at a node and the rms of the deformation's (written out here)."""
+    from solver.case import load_case
+    from solver.study.periodic import CycleMap, EndState
+    from solver.study.simulation import Run
 
-    from solver.study.periodic import CycleMap
+    case = load_case(_case(tmp_path / "unit", 'elastic = "winkler"\n', 1))
+    run = Run(case, MPI.COMM_SELF, case.solver.joint)
+    cycle_map = CycleMap(run, "mpe")
+    assert cycle_map.acceleration == "mpe" and list(cycle_map.films) == ["big_end"]
+    n = run.big_model.space.n
+    t, q, qd = run.em.initial_state(0.0)
+    rng = np.random.default_rng(11)
+    size = run.big_model.history_state().size
+    assert size > n  # the film's u, then the shell's deformation
+    fixed = np.concatenate([rng.uniform(-1.4, -0.05, n), rng.uniform(0.0, 0.3, size - n)])
+    assert np.any(fixed[:n] < -1.0)  # film fractions below 0: not admissible
+    offset = np.concatenate([rng.uniform(-0.4, 0.0, n), rng.uniform(-0.2, 0.2, size - n)])
+    earlier = rng.uniform(-0.01, 0.01, size)  # the committed state before the last one, less the last
 
-    assert CycleMap(SimpleNamespace(model=None, big_has_history=True), "mpe").acceleration == "none"
-    assert CycleMap(SimpleNamespace(model=None, big_has_history=False), "mpe").acceleration == "mpe"
+    def state(k: int) -> EndState:  # after k cycles of the linear map
+        x = fixed + 0.5**k * offset
+        return EndState(t, q, qd, [], big_end_film=[(t - 1e-4, x + earlier), (t, x)])
+
+    parts = cycle_map.parts(state(0))
+    assert {"big_end_film_fraction", "big_end_deformation"} <= set(parts)
+    assert cycle_map.vector(state(0)).size == parts["position"].size + parts["velocity"].size + size
+    change = cycle_map.state_changes(state(1), state(2))
+    x1, x2 = state(1).big_end_film[-1][1], state(2).big_end_film[-1][1]
+    assert change["big_end_film_fraction"] == pytest.approx(np.max(np.abs(x2[:n] - x1[:n])), rel=1e-12)
+    rms = np.sqrt(np.mean((x2[n:] - x1[n:]) ** 2))
+    assert change["big_end_deformation"] == pytest.approx(rms, rel=1e-12)
+    for k in (0, 1):
+        cycle_map.record(state(k), state(k + 1))
+    np.testing.assert_allclose(cycle_map.coefficients(), [-1.0, 2.0], atol=1e-12)
+    start = cycle_map.next_start(state(2))
+    assert cycle_map.extrapolated and start.film == []
+    (t_before, before), (t_last, last) = start.big_end_film
+    assert (t_before, t_last) == (t - 1e-4, t)
+    admissible = fixed.copy()
+    admissible[:n] = np.maximum(fixed[:n], -1.0)
+    np.testing.assert_allclose(last, admissible, rtol=0, atol=1e-12)
+    expected_before = fixed + earlier
+    expected_before[:n] = np.maximum(expected_before[:n], -1.0)
+    np.testing.assert_allclose(before, expected_before, rtol=0, atol=1e-12)
+    theta = 1.0 + np.minimum(last[:n], 0.0)
+    assert theta.min() == 0.0 and theta.max() <= 1.0
