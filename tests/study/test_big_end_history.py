@@ -221,7 +221,9 @@ def test_the_cycle_map_extrapolates_the_big_ends_film_admissibly(tmp_path):
     alpha = (-1, 2), which lands on x* (closed form); x* has film fractions below 0 at some nodes, which
     the extrapolated start clips to 0 (u = -1) and leaves elsewhere, and the committed history is moved by
     the same correction. 1e-12: round-off of states of order 1. The per-cycle changes are the largest
-    change of theta at a node and the rms of the deformation's (written out here)."""
+    change of theta at a node and the rms of the deformation's (written out here). The mechanism's state,
+    the same at every cycle end and off its constraints by an integrator's drift (1e-7), is the start's
+    exactly (a projection onto the constraints would move the big end's pin by the drift)."""
     from solver.case import load_case
     from solver.study.periodic import CycleMap, EndState
     from solver.study.simulation import Run
@@ -232,6 +234,8 @@ def test_the_cycle_map_extrapolates_the_big_ends_film_admissibly(tmp_path):
     assert cycle_map.acceleration == "mpe" and list(cycle_map.films) == ["big_end"]
     n = run.big_model.space.n
     t, q, qd = run.em.initial_state(0.0)
+    q = q + 1e-7 * np.sign(np.arange(q.size) % 2 - 0.5)  # the integrator's drift: max |Phi| ~1e-7 m
+    assert np.max(np.abs(run.em.mechanism.phi(q, t))) > 1e-8
     rng = np.random.default_rng(11)
     size = run.big_model.history_state().size
     assert size > n  # the film's u, then the shell's deformation
@@ -257,6 +261,10 @@ def test_the_cycle_map_extrapolates_the_big_ends_film_admissibly(tmp_path):
     np.testing.assert_allclose(cycle_map.coefficients(), [-1.0, 2.0], atol=1e-12)
     start = cycle_map.next_start(state(2))
     assert cycle_map.extrapolated and start.film == []
+    # the mechanism did not move: the start keeps the plain end's configuration, drift and all (to the
+    # round-off of -q + 2 q: 1e-15 m, rad against the drift's 1e-7)
+    np.testing.assert_allclose(start.q, q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(start.qd, qd, rtol=0, atol=1e-12 * np.max(np.abs(qd)))
     (t_before, before), (t_last, last) = start.big_end_film
     assert (t_before, t_last) == (t - 1e-4, t)
     admissible = fixed.copy()
