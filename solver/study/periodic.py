@@ -32,12 +32,11 @@ bushing by the clearance and its rate by clearance x crank speed (the mechanism'
 each film's film fraction and deformation (/ its clearance) by their root mean square over that film's
 nodes, the effective temperature in K. The combination is taken of the coordinates and velocities, the
 film states (each film's own) and the temperature, and made admissible: film fraction in [0, 1], the
-correction of positions and velocities projected on the constraints (the start keeps the plain end's
-constraint residuals, the integrator's drift: :func:`onto_residuals`), the pin inside its clearance
-(else the step is halved toward the plain start); a combination with any |alpha_j| above
-MAX_COEFFICIENT is refused (the plain start). Each film's committed history is moved by the same
-correction as its last state, so that the first step's rate (BDF2 through the committed states) stays
-the cycle's own.
+positions and velocities projected on the constraints with the combined eccentricities and their rates
+kept (:func:`onto_constraints`), the pin inside its clearance (else the step is halved toward the plain
+start); a combination with any |alpha_j| above MAX_COEFFICIENT is refused (the plain start). Each
+film's committed history is moved by the same correction as its last state, so that the first step's
+rate (BDF2 through the committed states) stays the cycle's own.
 
 The periodic test (solver.study.cycles) is the plain one, on consecutive cycles of the iteration:
 with the extrapolation it starts from the third cycle, each cycle from the extrapolation of the last
@@ -56,6 +55,7 @@ import numpy as np
 
 from solver.dynamics.engine import CRANK, PIN
 from solver.dynamics.multibody import MechanismError
+from solver.study.energy import kept_motion
 
 log = logging.getLogger(__name__)
 
@@ -108,33 +108,38 @@ def mixing_coefficients(residuals: list[np.ndarray]) -> np.ndarray | None:
     return alpha
 
 
-def onto_residuals(mechanism, q, qd, t: float, plain_q, plain_qd, tolerance: float = 1e-12):
-    """(q, qd) moved to the constraint residuals of the plain state (plain_q, plain_qd) at t: Gauss-Newton
-    with minimum-norm corrections on ``Phi(q) = Phi(plain_q)``, then qd's minimum-norm correction to
-    ``Phi_q qd + Phi_t`` of the plain state. The plain end carries the integrator's drift (max |Phi| ~1e-7
-    m on the JFO big end); a projection onto ``Phi = 0`` moved the big end's pin by 0.001-0.002 of its
-    clearance, more than a plain cycle's change near the periodic state, so the extrapolated start
-    keeps the drift and takes the correction alone: with alpha = (0, ..., 1) it is the plain start.
+def onto_constraints(em, q, qd, t: float, tolerance: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """(q, qd) on the constraints at t with the clearance joints' eccentricities and their rates (and a
+    floating pin's angle and speed) kept: Newton on ``Phi(q) = 0`` and those coordinates held, then the
+    velocities' correction that keeps the rates (the position counterpart of the outputs' consistent
+    velocities, solver.study.outputs.StateOutputs.consistent; the rows: solver.study.energy.kept_motion).
+    A minimum-norm projection of the whole q instead spreads the integrator's drift (max |Phi| ~1e-7 m)
+    over the free coordinates too: it moved the JFO big end's pin by 0.001-0.002 of its clearance at
+    every extrapolated start, more than a plain cycle's change near the periodic state.
 
     Raises:
         MechanismError: no convergence in 30 iterations.
     """
-    q = np.array(q, dtype=float)
-    target = mechanism.phi(np.asarray(plain_q, dtype=float), t)
+    mech, joints = em.mechanism, list(em.clearance_joints.values())
+    q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
+    rest = np.zeros_like(q)
+
+    def held(x: np.ndarray) -> np.ndarray:  # the coordinates kept
+        ecc = [np.asarray(joint.kinematics(x, rest).ecc, dtype=float) for joint in joints]
+        return np.concatenate([*ecc, [x[3 * PIN + 2]] if em.floating_pin else []])
+
+    target, rates = held(q), kept_motion(em, q, t)[mech.n_constraints :] @ qd
     for _ in range(30):
-        residual = mechanism.phi(q, t) - target
-        if residual.size == 0 or np.max(np.abs(residual)) <= tolerance:
+        residual = np.concatenate([mech.phi(q, t), held(q) - target])
+        if np.max(np.abs(residual)) <= tolerance:
             break
-        q += np.linalg.lstsq(mechanism.jacobian(q, t), -residual, rcond=None)[0]
+        q -= np.linalg.lstsq(kept_motion(em, q, t), residual, rcond=None)[0]
     else:
         raise MechanismError("the extrapolated configuration does not assemble")
-    qd = np.array(qd, dtype=float)
-    if target.size:
-        plain_qd = np.asarray(plain_qd, dtype=float)
-        rate = mechanism.jacobian(plain_q, t) @ plain_qd + mechanism.phi_t(plain_q, t)
-        jac = mechanism.jacobian(q, t)
-        qd += np.linalg.lstsq(jac, rate - (jac @ qd + mechanism.phi_t(q, t)), rcond=None)[0]
-    return q, qd
+    rows = kept_motion(em, q, t)
+    n = mech.n_constraints
+    residual = np.concatenate([-mech.phi_t(q, t) - rows[:n] @ qd, rates - rows[n:] @ qd])
+    return q, qd + rows.T @ np.linalg.lstsq(rows @ rows.T, residual, rcond=None)[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -332,7 +337,6 @@ class CycleMap:
             if end.history(name) and all(e.history(name) for e in ends)
         }
         plain_q = self._period_q(end)
-        mechanism = self.run.em.mechanism
         joints = self.run.em.clearance_joints
         # a finite-element film (small end, big end) has its own largest eccentricity ratio
         films = {"small_end": self.run.model, "big_end": getattr(self.run, "big_model", None)}
@@ -343,7 +347,7 @@ class CycleMap:
         for _ in range(6):  # the step halved toward the plain start until the pin is inside
             q = np.array(end.q, dtype=float) + (q_period - plain_q)
             try:
-                q, v = onto_residuals(mechanism, q, qd, end.t, end.q, end.qd)
+                q, v = onto_constraints(self.run.em, q, qd, end.t)
             except Exception:  # noqa: BLE001 - a configuration that does not assemble: a shorter step
                 q = None
             if q is not None:
