@@ -90,6 +90,19 @@ def main() -> None:
     parser.add_argument("--base-mesh", type=float, default=0.15)
     parser.add_argument("--base-step", type=float, default=5.0)
     parser.add_argument("--base-rtol", type=float, default=1e-5)
+    parser.add_argument(
+        "--base-edge",
+        type=float,
+        default=None,
+        help="solver.mesh_edge_size of the base (the film graded toward the edges; default: uniform); "
+        "the variant 'mesh edges / 2' halves it",
+    )
+    parser.add_argument(
+        "--base-modes",
+        type=int,
+        default=None,
+        help="small_end.compliance_modes of the base (an FE eye's case); the variant 'modes x 2' doubles it",
+    )
     parser.add_argument("--max-cycles", type=int, default=3)
     parser.add_argument(
         "--periodic-tolerance",
@@ -124,14 +137,21 @@ def main() -> None:
     }
     if args.periodic_friction_tolerance is not None:
         base["periodic_friction_tolerance"] = args.periodic_friction_tolerance
+    if args.base_edge is not None:
+        base["mesh_edge_size"] = args.base_edge
+    modes = "" if args.base_modes is None else f"[small_end]\ncompliance_modes = {args.base_modes}\n"
     variants = {
-        "base": (base, ""),
-        "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, ""),
-        "output step / 2": ({**base, "step_deg": args.base_step / 2}, ""),
-        "rtol / 10": ({**base, "rtol": args.base_rtol / 10}, ""),
+        "base": (base, modes),
+        "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, modes),
+        "output step / 2": ({**base, "step_deg": args.base_step / 2}, modes),
+        "rtol / 10": ({**base, "rtol": args.base_rtol / 10}, modes),
         "viscosity x 2": (base, "[oil]\nviscosity_Pa_s = 0.020\n"),
         "roughness x 1.5": (base, "[surface]\nsigma_pin_um = 0.15\nsigma_bushing_um = 0.45\n"),
     }
+    if args.base_edge is not None:  # the element size halved where it is smallest
+        variants["mesh edges / 2"] = ({**base, "mesh_edge_size": round(args.base_edge / 2, 5)}, modes)
+    if args.base_modes is not None:
+        variants["modes x 2"] = (base, f"[small_end]\ncompliance_modes = {2 * args.base_modes}\n")
     rows = {}
     if args.only:
         variants = {k: v for k, v in variants.items() if (k == "base" and not args.no_base) or k in args.only}

@@ -577,11 +577,11 @@ FIELDS: tuple[FieldSpec, ...] = (
         "ideal",
         choices=BIG_END_JOINTS,
         doc="big-end model (crankpin in the rod's big eye): ideal revolute; Ocvirk short bearing (rigid, "
-        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye or a "
-        "Winkler shell, big_end.elastic; the oil, cavitation law (Reynolds or the mass-conserving JFO film, "
-        "its film fraction carried from step to step) and max-gap or no inlet of [oil], the roughness of "
-        "[big_end_surface], solver.mesh_size); or dry contact (Hertz stiffness from the moduli of "
-        "[big_end_surface])",
+        "smooth, the oil of [oil]); mixed-fem, the small end's finite-element film (a rigid eye, a "
+        "Winkler shell or the finite-element eye, big_end.elastic; the oil, cavitation law (Reynolds or "
+        "the mass-conserving JFO film, its film fraction carried from step to step) and max-gap or no inlet "
+        "of [oil], the roughness of [big_end_surface], solver.mesh_size); or dry contact (Hertz stiffness "
+        "from the moduli of [big_end_surface])",
     ),
     _f(
         "big_end",
@@ -664,11 +664,13 @@ FIELDS: tuple[FieldSpec, ...] = (
         "elastic",
         str,
         "none",
-        choices=("none", "winkler"),
+        choices=("none", "winkler", "fe"),
         doc="big-end shell deformation under the film and asperity pressure, as small_end.elastic: none "
-        "(rigid) or winkler (a thin shell of bushing_thickness_mm on a rigid eye, w = k p node by node, "
-        "the moduli big_end_surface.E_bushing_GPa, big_end_surface.nu_bushing); a mixed-fem big end, "
-        "inlet none or a supply (the finite-element eye is the small end's only)",
+        "(rigid), winkler (a thin shell of bushing_thickness_mm on a rigid eye, w = k p node by node, "
+        "the moduli big_end_surface.E_bushing_GPa, big_end_surface.nu_bushing) or fe (the finite-element "
+        "compliance of the big eye, cap continuous with it, and that shell, clamped where the eye joins "
+        "the shank, toward the small end; cached on disk; docs/models.md); a mixed-fem big end, inlet none "
+        "or a supply; fe without big_end.supply = hole",
     ),
     _f(
         "big_end",
@@ -678,7 +680,7 @@ FIELDS: tuple[FieldSpec, ...] = (
         1e-3,
         0.0,
         unit="mm",
-        doc="with elastic = winkler: the big-end shell's wall thickness; <= big_end.radius_mm",
+        doc="with elastic = winkler or fe: the big-end shell's wall thickness; <= big_end.radius_mm",
     ),
     # [pin_boss]
     FieldSpec(
@@ -1221,6 +1223,38 @@ FIELDS = (
     + tuple(spec for spec in FIELDS if spec.section == "solver")
 )
 
+# [big_end]'s finite-element eye (elastic = fe): the small end's keys of the eye and its compliance, with
+# the same names, units and ranges; the eye's default outer radius and the docs are the big eye's
+_BIG_EYE = {
+    "eye_outer_radius_mm": {
+        "default": 37.0,
+        "doc": "fe: outer radius of the rod's big eye, the cap continuous with it; > big_end.radius_mm + "
+        "bushing_thickness_mm (the default: a wall of 11 mm around the shell's 25.8 mm, 1.43 times it, near "
+        "the small end's 17 / 11.5 = 1.48; a rod cap of a 2 l engine's size)",
+    },
+    "E_eye_GPa": {"doc": "fe: Young's modulus of the rod's big eye (and cap)"},
+    "nu_eye": {"doc": "fe: Poisson ratio of the rod's big eye (and cap)"},
+    "shank_half_angle_deg": {
+        "doc": "fe: half angle of the arc where the big eye joins the shank (clamped; the shank is toward "
+        "the small end, at 0 deg of the rod frame)",
+    },
+    "compliance_basis": {},
+    "compliance_modes": {},
+    "compliance_grid_theta": {},
+    "compliance_grid_z": {},
+    "compliance_tolerance": {},
+}
+_at = next(i for i, s in enumerate(FIELDS) if s.section == "big_end" and s.key == "bushing_thickness_mm")
+FIELDS = (
+    FIELDS[: _at + 1]
+    + tuple(
+        dataclasses.replace(spec, section="big_end", **_BIG_EYE[spec.key])
+        for spec in FIELDS
+        if spec.section == "small_end" and spec.key in _BIG_EYE
+    )
+    + FIELDS[_at + 1 :]
+)
+
 SECTIONS = (
     "engine",
     "gas",
@@ -1404,8 +1438,18 @@ class BigEnd:
     supply_pressure: float = _field("big_end", "supply_pressure")  # Pa, gauge
     supply_hole_diameter: float = _field("big_end", "supply_hole_diameter")  # m
     supply_hole_angle: float = _field("big_end", "supply_hole_angle")  # rad, crank frame
-    elastic: str = _field("big_end", "elastic")  # none | winkler
+    elastic: str = _field("big_end", "elastic")  # none | winkler | fe
     bushing_thickness: float = _field("big_end", "bushing_thickness")  # m, the shell's wall
+    # elastic = fe: the big eye (shank toward the small end) and its compliance, as SmallEnd's
+    eye_outer_radius: float = _field("big_end", "eye_outer_radius")  # m
+    E_eye: float = _field("big_end", "E_eye")  # Pa
+    nu_eye: float = _field("big_end", "nu_eye")
+    shank_half_angle: float = _field("big_end", "shank_half_angle")  # rad
+    compliance_basis: str = _field("big_end", "compliance_basis")
+    compliance_modes: int = _field("big_end", "compliance_modes")  # 0: from compliance_tolerance
+    compliance_tolerance: float = _field("big_end", "compliance_tolerance")
+    compliance_grid_theta: int = _field("big_end", "compliance_grid_theta")
+    compliance_grid_z: int = _field("big_end", "compliance_grid_z")
 
     def __post_init__(self) -> None:
         _check_section(self, "big_end")
@@ -1416,6 +1460,21 @@ class BigEnd:
             bushing_thickness=None if self.elastic == "none" else self.bushing_thickness,
             names=BIG_END_LENGTHS,
         )
+        if self.elastic != "fe":
+            return
+        nodes = self.compliance_grid_theta * self.compliance_grid_z
+        if self.compliance_modes > nodes:
+            raise out_of_range(
+                "big_end.compliance_modes",
+                self.compliance_modes,
+                f"[0, {nodes}]: at most the grid's nodes, compliance_grid_theta x compliance_grid_z",
+            )
+        if not self.eye_outer_radius > self.radius + self.bushing_thickness:
+            raise out_of_range(
+                "big_end.eye_outer_radius_mm",
+                f"{self.eye_outer_radius * 1e3:g}",
+                f"> radius + bushing thickness = {(self.radius + self.bushing_thickness) * 1e3:g}",
+            )
 
     @property
     def lubricated(self) -> bool:
@@ -1665,6 +1724,12 @@ def _check_big_end(case: Case) -> None:
         raise InputError(
             f"big_end.elastic = {be.elastic!r} deforms the finite-element film's shell (allowed with "
             f'big_end.joint = "mixed-fem"; got {be.joint!r}; or big_end.elastic = "none")'
+        )
+    if be.elastic == "fe" and be.supply == "hole":
+        raise InputError(
+            'big_end.elastic = "fe" with big_end.supply = "hole" is out of range: the eye\'s compliance is '
+            "fixed in the rod's frame, the film with the crankpin's hole is solved in the crankpin's "
+            '(allowed: big_end.elastic = "winkler" with the hole, or "fe" with big_end.supply = "none")'
         )
     if be.elastic != "none" and case.oil.inlet == "max-gap":
         raise InputError(

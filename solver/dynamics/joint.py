@@ -683,17 +683,52 @@ def crankpin_angle_to_rod(engine):
     return angle
 
 
+#: the big eye's shank in the big end's film (bushing) frame, the rod's: its x' axis points from the big
+#: end to the small end (solver.dynamics.engine), so the shank is at 0 deg (the small end's at 180 deg)
+BIG_END_SHANK_ANGLE_DEG = 0.0
+
+
+def big_eye_bushing(case: Case):
+    """The big end's shell as the film's bushing description (solver.film.bushings): None (rigid), a
+    Winkler layer, or the finite-element big eye (``big_end.elastic = "fe"``: an FEEye, the eye of
+    ``big_end.eye_outer_radius`` and its moduli with the shell of ``big_end.bushing_thickness`` and the
+    moduli of ``[big_end_surface]``, clamped on the arc of ``big_end.shank_half_angle`` around
+    ``BIG_END_SHANK_ANGLE_DEG``, toward the small end; the cap is continuous with the eye). Cheap:
+    nothing is meshed here."""
+    from solver.film.bushings import bushing_model
+
+    be, surf = case.big_end, case.big_end_surface
+    return bushing_model(
+        be.elastic,
+        radius=be.radius,
+        width=be.width,
+        bushing_thickness=be.bushing_thickness,
+        eye_outer_radius=be.eye_outer_radius,
+        E_eye=be.E_eye,
+        nu_eye=be.nu_eye,
+        E_bushing=surf.E_bushing,
+        nu_bushing=surf.nu_bushing,
+        shank_half_angle_deg=math.degrees(be.shank_half_angle),
+        shank_angle_deg=BIG_END_SHANK_ANGLE_DEG,
+        modes=be.compliance_modes,
+        tolerance=be.compliance_tolerance,
+        basis=be.compliance_basis,
+        grid=(be.compliance_grid_theta, be.compliance_grid_z),
+    )
+
+
 def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
     """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else the
     crankpin (journal, turning with the crank) in the rod's big eye (bushing): Ocvirk's short bearing in
     the oil of ``[oil]``; the finite-element film (``mixed-fem``: a :class:`FilmJoint` whose ``model`` is
     the film, built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; rigid eye, the oil,
     cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[big_end_surface]``, the mesh of
-    ``[solver]``, the shell of ``big_end.elastic``: rigid or Winkler; with ``big_end.supply = "hole"``
-    the hole in the crankpin, the film solved in the crankpin's frame: a
-    :class:`JournalFrameFilmJoint`); or the dry contact (Hertz stiffness from ``[big_end_surface]``'s
-    moduli). The big end's surface (``case.big_end_surface``: the crankpin is its pin, the big eye's shell
-    its bushing) is its own; the small end and the pin's bosses keep ``[surface]``."""
+    ``[solver]``, the shell of ``big_end.elastic``: rigid, Winkler or the finite-element big eye
+    (``big_eye_bushing``); with ``big_end.supply = "hole"`` the hole in the crankpin, the film solved in
+    the crankpin's frame: a :class:`JournalFrameFilmJoint`, rigid or Winkler only); or the dry contact
+    (Hertz stiffness from ``[big_end_surface]``'s moduli). The big end's surface (``case.big_end_surface``:
+    the crankpin is its pin, the big eye's shell its bushing) is its own; the small end and the pin's
+    bosses keep ``[surface]``."""
     be, surf = case.big_end, case.big_end_surface
     if be.joint == "ideal":
         return None
@@ -723,14 +758,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             from mpi4py import MPI
 
             comm = MPI.COMM_SELF
-        from solver.film.bushings import WinklerLayer
-
-        # the shell: rigid or a Winkler layer (the FE eye is the small end's only, solver.case)
-        bushing = (
-            WinklerLayer(thickness=be.bushing_thickness, E=surf.E_bushing, nu=surf.nu_bushing)
-            if be.elastic == "winkler"
-            else None
-        )
+        bushing = big_eye_bushing(case)
         if be.supply == "none":
             model = _film_model(
                 case,

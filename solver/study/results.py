@@ -146,8 +146,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
     ),
     "big_end_deformation_max": (
         "m",
-        "big end: largest radial deformation of the shell's surface, as deformation_max (mixed-fem; 0: "
-        "rigid, big_end.elastic)",
+        "big end: largest radial deformation of the shell's surface (with the FE eye: of the eye and the "
+        "shell), as deformation_max (mixed-fem; 0: rigid, big_end.elastic)",
     ),
     "big_end_deformation_max_angle": (
         "rad",

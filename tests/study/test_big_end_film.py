@@ -317,7 +317,27 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
     ("big_end", "oil", "field"),
     [
         ('joint = "short-bearing"\nelastic = "winkler"\n', "", "big_end.elastic"),
-        ('joint = "mixed-fem"\nelastic = "fe"\n', "", "big_end.elastic"),
+        ('joint = "short-bearing"\nelastic = "fe"\n', "", "big_end.elastic"),
+        ('joint = "mixed-fem"\nelastic = "fe"\nsupply = "hole"\n', "", "big_end.supply"),
+        ('joint = "mixed-fem"\nelastic = "fe"\n', 'inlet = "max-gap"\n', "big_end.elastic"),
+        (
+            'joint = "mixed-fem"\nelastic = "fe"\neye_outer_radius_mm = 25.8\n',
+            "",
+            "big_end.eye_outer_radius_mm",
+        ),
+        (
+            'joint = "mixed-fem"\nelastic = "fe"\ncompliance_grid_theta = 12\ncompliance_grid_z = 2\n'
+            "compliance_modes = 25\n",
+            "",
+            "big_end.compliance_modes",
+        ),
+        (
+            'joint = "mixed-fem"\nelastic = "fe"\nshank_half_angle_deg = 90\n',
+            "",
+            "big_end.shank_half_angle_deg",
+        ),
+        ('joint = "mixed-fem"\nelastic = "fe"\ncompliance_basis = "modal"\n', "", "big_end.compliance_basis"),
+        ('joint = "mixed-fem"\nelastic = "fe"\nE_eye_GPa = 0\n', "", "big_end.E_eye_GPa"),
         ('joint = "mixed-fem"\nelastic = "winkler"\n', 'inlet = "max-gap"\n', "big_end.elastic"),
         (
             'joint = "mixed-fem"\nelastic = "winkler"\nbushing_thickness_mm = 30\n',
@@ -338,11 +358,14 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
     ],
 )
 def test_bad_big_end_film_keys_are_one_line_errors(tmp_path, big_end, oil, field):
-    """An elastic big end without the FE film, with the FE eye (the small end's only), with the max-gap
-    inlet or a shell thicker than the crankpin's radius; a JFO big end whose edges are sealed (cavitation
-    pressure 0, no supply of its own: the small end's hole does not feed it); an unknown model, a
-    crankpin hole without the FE film or with the max-gap inlet, too wide or below ambient, an unknown
-    supply: an InputError of one line naming the key."""
+    """An elastic big end (Winkler or the FE eye) without the FE film or with the max-gap inlet, a shell
+    thicker than the crankpin's radius; the FE eye with the crankpin's hole (its compliance is fixed in
+    the rod's frame, the film in the crankpin's), an eye no thicker than the bore and its shell, more modes
+    than the compliance grid's nodes, a clamp of 90 deg half angle or more, an unknown basis, a zero
+    modulus; a JFO big end whose edges are sealed (cavitation pressure 0, no supply of its own: the small
+    end's hole does not feed it); an unknown model, a crankpin hole without the FE film or with the
+    max-gap inlet, too wide or below ambient, an unknown supply: an InputError of one line naming the
+    key."""
     case_dir = make_case(tmp_path / "bad", 'joint = "ideal"\n', big_end)
     if oil:
         text = (case_dir / "case.toml").read_text()
