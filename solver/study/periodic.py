@@ -9,7 +9,7 @@ x_k at a cycle end (crank angle 0 mod 720 deg). That state (:class:`EndState`) i
 - each film's committed history (solver.film.history; none for a rigid Reynolds film), the small end's
   and the big end's: the last solve's unknowns, with the JFO film's u (film fraction
   ``theta = 1 + min(u, 0)``, the oil held in the film) and an elastic bushing's modal deformation (the
-  big end's Winkler shell: its node-by-node deformation). The big end's film with the crankpin's hole
+  big end's alike: its FE eye's modes or its Winkler shell's nodes). The big end's film with the hole
   is solved in the crankpin's frame and keeps its state there, on its own mesh: its parts are combined
   as they are (nothing to rotate).
 
