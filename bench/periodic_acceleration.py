@@ -25,7 +25,15 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-PARTS = ("position", "velocity", "film_fraction", "deformation", "temperature")
+PARTS = (
+    "position",
+    "velocity",
+    "film_fraction",
+    "deformation",
+    "temperature",
+    "big_end_film_fraction",
+    "big_end_deformation",
+)
 
 
 def with_acceleration(source: Path, work: Path, acceleration: str) -> Path:

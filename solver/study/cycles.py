@@ -145,6 +145,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     row, qd = outputs.at(t0, q0, qd0)
     output_accepted(t0)
     run.start_film = model.committed_history() if history else []  # the film's state the cycle starts from
+    run.start_big_end_film = run.big_model.committed_history() if big_history else []  # the big end's alike
     rows = [row]
     work = np.zeros(len(STAGE_COLUMNS))  # STAGE_COLUMNS since the cycle's start
     energies = [work.copy()]
@@ -231,6 +232,8 @@ def describe_changes(change: dict[str, float]) -> str:
         "film_fraction": "(largest at a node)",
         "deformation": "clearance (rms)",
         "temperature": "K (the heat balance's fixed point less the cycle's)",
+        "big_end_film_fraction": "(largest at a node)",
+        "big_end_deformation": "clearance (rms)",
     }
     return ", ".join(
         f"{name.replace('_', ' ')} {value:.3g} {units[name]}"
@@ -400,6 +403,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                     start,
                     film=run.start_film if run.model is not None else [],
                     temperature=oil.temperature if oil.thermal is not None else math.nan,
+                    big_end_film=run.start_big_end_film if run.big_has_history else [],
                 )
                 end = EndState(
                     t0,
@@ -409,6 +413,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                     oil.thermal.model.fixed_point(oil.thermal.history[-1])
                     if oil.thermal is not None
                     else math.nan,
+                    run.big_model.committed_history() if run.big_has_history else [],
                 )
                 change = cycle_map.state_changes(start, end)
                 cycle_map.record(start, end)
@@ -454,10 +459,11 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 # extrapolated while the orbit is not periodic; then plain (the thermal iteration alone
                 # closes the balance: an extrapolation there only moves the orbit by its noise)
                 start = cycle_map.next_start(end, extrapolate=not settled_now)
-                if start is not end and run.model is not None and start.film:
-                    for time_s, film_state in start.film:  # the film's history moved alike
-                        run.model.commit_history(film_state, time_s)
-                    run.model.start_from(start.film[-1][1])
+                for model, film in ((run.model, start.film), (run.big_model, start.big_end_film)):
+                    if start is not end and model is not None and film:
+                        for time_s, film_state in film:  # each film's history moved alike
+                            model.commit_history(film_state, time_s)
+                        model.start_from(film[-1][1])
                 if start is not end and oil.thermal is not None:  # the temperature extrapolated with them
                     oil.thermal.propose(start.temperature)
     except KeyboardInterrupt:

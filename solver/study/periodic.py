@@ -6,9 +6,12 @@ x_k at a cycle end (crank angle 0 mod 720 deg). That state (:class:`EndState`) i
 
 - the mechanism's coordinates q and velocities qd (the crank's angle taken modulo the cycle, which the
   driver prescribes: only the pin's two degrees of freedom in its bushing are free);
-- the film's committed history (solver.film.history; none for a rigid Reynolds film): the last solve's
-  unknowns, with the JFO film's u (film fraction ``theta = 1 + min(u, 0)``, the oil held in the
-  film) and an elastic bushing's modal deformation.
+- each film's committed history (solver.film.history; none for a rigid Reynolds film), the small end's
+  and the big end's: the last solve's unknowns, with the JFO film's u (film fraction
+  ``theta = 1 + min(u, 0)``, the oil held in the film) and an elastic bushing's modal deformation (the
+  big end's alike: its FE eye's modes or its Winkler shell's nodes). The big end's film with the hole
+  is solved in the crankpin's frame and keeps its state there, on its own mesh: its parts are combined
+  as they are (nothing to rotate).
 
 Each cycle logs the change of each part between its start and its end (:func:`state_changes`), the
 numbers that show which part settles slowly.
@@ -26,17 +29,14 @@ Syst. 27) uses for periodic steady states, and on any pairs the Anderson mixing 
 affine combination that would make the linearised cycle's change smallest. It removes the modes that
 the pairs span in one step. The norm weighs each part by its scale: the pin's eccentricity in its
 bushing by the clearance and its rate by clearance x crank speed (the mechanism's free coordinates),
-the film fraction and the deformation (/ clearance) by their root mean square over the film's nodes,
-the effective temperature in K. The combination is taken of the coordinates and velocities, the film
-states and the temperature, and made admissible: film fraction in [0, 1], positions and velocities
-projected on the constraints, the pin inside its clearance (else the step is halved toward the plain
-start); a combination with any |alpha_j| above MAX_COEFFICIENT is refused (the plain start). The film's
-committed history is moved by the same correction as its last state, so that the first step's rate
-(BDF2 through the committed states) stays the cycle's own.
-
-With a big end whose film has history (JFO, a Winkler shell) the extrapolation is off (plain cycles):
-that film's state is not one of the parts combined here; its committed history goes on from cycle to
-cycle (and in the checkpoint) as the small end's does.
+each film's film fraction and deformation (/ its clearance) by their root mean square over that film's
+nodes, the effective temperature in K. The combination is taken of the coordinates and velocities, the
+film states (each film's own) and the temperature, and made admissible: film fraction in [0, 1], the
+positions and velocities projected on the constraints with the combined eccentricities and their rates
+kept (:func:`onto_constraints`), the pin inside its clearance (else the step is halved toward the plain
+start); a combination with any |alpha_j| above MAX_COEFFICIENT is refused (the plain start). Each
+film's committed history is moved by the same correction as its last state, so that the first step's
+rate (BDF2 through the committed states) stays the cycle's own.
 
 The periodic test (solver.study.cycles) is the plain one, on consecutive cycles of the iteration:
 with the extrapolation it starts from the third cycle, each cycle from the extrapolation of the last
@@ -54,12 +54,25 @@ import math
 import numpy as np
 
 from solver.dynamics.engine import CRANK, PIN
-from solver.dynamics.multibody import project_positions, project_velocities
+from solver.dynamics.multibody import MechanismError
+from solver.study.energy import kept_motion
 
 log = logging.getLogger(__name__)
 
-#: the parts of the state whose change over each cycle is logged and kept (results.nc ``history.*``)
-STATE_PARTS = ("position", "velocity", "film_fraction", "deformation", "temperature")
+#: the parts of the state whose change over each cycle is logged and kept (results.nc ``history.*``):
+#: the small end's film parts unprefixed, the big end's after them (names are an interface: added to,
+#: never renamed)
+STATE_PARTS = (
+    "position",
+    "velocity",
+    "film_fraction",
+    "deformation",
+    "temperature",
+    "big_end_film_fraction",
+    "big_end_deformation",
+)
+#: the prefix of each film's parts, by its joint
+FILM_PREFIX = {"small_end": "", "big_end": "big_end_"}
 #: K, the effective film temperature's scale in the extrapolation's norm: its closure tolerance, 1e-6,
 #: is ~1e-5 K of the fixed point's change, and the pin's cycle-end position moves by ~3e-4 clearance a
 #: cycle at the integration's tolerance; at 1 K the position's noise outweighed the temperature's last
@@ -95,41 +108,120 @@ def mixing_coefficients(residuals: list[np.ndarray]) -> np.ndarray | None:
     return alpha
 
 
+def onto_constraints(em, q, qd, t: float, tolerance: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """(q, qd) on the constraints at t with the clearance joints' eccentricities and their rates (and a
+    floating pin's angle and speed) kept: Newton on ``Phi(q) = 0`` and those coordinates held, then the
+    velocities' correction that keeps the rates (the position counterpart of the outputs' consistent
+    velocities, solver.study.outputs.StateOutputs.consistent; the rows: solver.study.energy.kept_motion).
+    A minimum-norm projection of the whole q instead spreads the integrator's drift (max |Phi| ~1e-7 m)
+    over the free coordinates too: it moved the JFO big end's pin by 0.001-0.002 of its clearance at
+    every extrapolated start, more than a plain cycle's change near the periodic state.
+
+    Raises:
+        MechanismError: no convergence in 30 iterations.
+    """
+    mech, joints = em.mechanism, list(em.clearance_joints.values())
+    q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
+    rest = np.zeros_like(q)
+
+    def held(x: np.ndarray) -> np.ndarray:  # the coordinates kept
+        ecc = [np.asarray(joint.kinematics(x, rest).ecc, dtype=float) for joint in joints]
+        return np.concatenate([*ecc, [x[3 * PIN + 2]] if em.floating_pin else []])
+
+    target, rates = held(q), kept_motion(em, q, t)[mech.n_constraints :] @ qd
+    for _ in range(30):
+        residual = np.concatenate([mech.phi(q, t), held(q) - target])
+        if np.max(np.abs(residual)) <= tolerance:
+            break
+        q -= np.linalg.lstsq(kept_motion(em, q, t), residual, rcond=None)[0]
+    else:
+        raise MechanismError("the extrapolated configuration does not assemble")
+    rows = kept_motion(em, q, t)
+    n = mech.n_constraints
+    residual = np.concatenate([-mech.phi_t(q, t) - rows[:n] @ qd, rates - rows[n:] @ qd])
+    return q, qd + rows.T @ np.linalg.lstsq(rows @ rows.T, residual, rcond=None)[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class HistoryFilm:
+    """A film with history as the cycle map sees its state x: the first ``nodes`` entries the film's
+    unknown u (JFO: the film fraction ``theta = 1 + min(u, 0)``), the rest its deformation / clearance
+    (an elastic bushing's modes, a Winkler shell's nodes); its parts are named with ``prefix``."""
+
+    prefix: str
+    nodes: int
+    jfo: bool
+
+    @classmethod
+    def of(cls, name: str, model) -> HistoryFilm | None:
+        """The film ``model`` (solver.film.model) of joint ``name``, or None: no film or no history."""
+        if model is None or not model.has_history:
+            return None
+        return cls(FILM_PREFIX[name], model.space.n, model.spec.cavitation == "jfo")
+
+    def parts(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """The film fraction (JFO) and the deformation of state x, each divided by sqrt(nodes): their
+        norms the root mean square over the film's nodes."""
+        n, parts = self.nodes, {}
+        if self.jfo:
+            parts[self.prefix + "film_fraction"] = (1.0 + np.minimum(x[:n], 0.0)) / math.sqrt(n)
+        if x.size > n:
+            parts[self.prefix + "deformation"] = x[n:] / math.sqrt(n)
+        return parts
+
+    def changes(self, a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, float]:
+        """The change from parts ``a`` to parts ``b`` (:meth:`parts`): the film fraction's largest at a
+        node, the deformation's root mean square over the nodes."""
+        change = {}
+        fraction, deformation = self.prefix + "film_fraction", self.prefix + "deformation"
+        if fraction in a and fraction in b:
+            change[fraction] = float(np.max(np.abs(b[fraction] - a[fraction])) * math.sqrt(self.nodes))
+        if deformation in a and deformation in b:
+            change[deformation] = float(np.linalg.norm(b[deformation] - a[deformation]))
+        return change
+
+    def admissible(self, x: np.ndarray) -> np.ndarray:
+        """State x with its film fraction in [0, 1] (JFO: u >= -1), a copy."""
+        x = np.array(x, dtype=float)
+        if self.jfo:
+            x[: self.nodes] = np.maximum(x[: self.nodes], -1.0)
+        return x
+
+
 @dataclasses.dataclass
 class EndState:
-    """The state at a cycle end (module docstring): time [s], coordinates, velocities, the film's
-    committed history ((time [s], state), oldest first; [] without history), and with oil.thermal =
+    """The state at a cycle end (module docstring): time [s], coordinates, velocities, the small end's
+    film's committed history ((time [s], state), oldest first; [] without history), and with oil.thermal =
     "effective" the film temperature [C] of the next cycle (a cycle's start: the one it runs at; its
     end: the balance's fixed point with the cycle's means, solver.study.thermal.ThermalModel.fixed_point;
-    NaN when isothermal)."""
+    NaN when isothermal); the big end's film's committed history as the small end's."""
 
     t: float
     q: np.ndarray
     qd: np.ndarray
     film: list[tuple[float, np.ndarray]]
     temperature: float = math.nan
+    big_end_film: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
+
+    def history(self, name: str) -> list[tuple[float, np.ndarray]]:
+        """The committed history of joint ``name``'s film (FILM_PREFIX)."""
+        return self.film if name == "small_end" else self.big_end_film
 
 
 class CycleMap:
     """The parts of a run's end states, their changes and (optionally) their extrapolation.
 
     Args:
-        run: the run (solver.study.simulation.Run): its mechanism, film, clearance and crank speed.
+        run: the run (solver.study.simulation.Run): its mechanism, films, clearances and crank speed.
         acceleration: ``"none"`` (plain cycles) or ``"mpe"`` (module docstring).
     """
 
     def __init__(self, run, acceleration: str = "none"):
-        if acceleration != "none" and getattr(run, "big_has_history", False):
-            # the big end's film history (JFO, Winkler) is not part of the state combined here: plain cycles
-            log.info(
-                "solver.periodic_acceleration = %r: not with the big end's film history (plain cycles)",
-                acceleration,
-            )
-            acceleration = "none"
         self.run, self.acceleration = run, acceleration
-        model = run.model
-        self.film_nodes = model.space.n if model is not None and model.has_history else 0
-        self.jfo = model is not None and model.spec.cavitation == "jfo"
+        models = {"small_end": run.model, "big_end": getattr(run, "big_model", None)}
+        # the films with history (the small end first), whose states are parts of the map's
+        films = {name: HistoryFilm.of(name, model) for name, model in models.items()}
+        self.films = {name: film for name, film in films.items() if film is not None}
         # the last PAIRS cycles: (start vector, end vector, end state)
         self.pairs: list[tuple[np.ndarray, np.ndarray, EndState]] = []
         self.extrapolated = False  # the cycle being run started from an extrapolated state
@@ -145,7 +237,8 @@ class CycleMap:
         """The state's parts, each divided by its scale (module docstring); the mechanism's by the pin's
         eccentricity in its bushing and its rate (the free coordinates: the others follow from the
         constraints, and weighed as coordinates the crank's and rod's angles would bring the
-        integrator's angle tolerance, 1e-6 rad, in as 1e-2 clearance)."""
+        integrator's angle tolerance, 1e-6 rad, in as 1e-2 clearance); each film's (small end, big end)
+        from its last committed state."""
         joints = self.run.em.clearance_joints  # (the small end first, then the big end)
         pins = [(joints[name].kinematics(state.q, state.qd), c) for name, c in self.run.clearances.items()]
         velocity = [np.asarray(pin.ecc_rate, dtype=float) / (c * self.run.omega) for pin, c in pins]
@@ -155,13 +248,10 @@ class CycleMap:
             "position": np.concatenate([np.asarray(pin.ecc, dtype=float) / c for pin, c in pins]),
             "velocity": np.concatenate(velocity),
         }
-        if self.film_nodes and state.film:
-            x = state.film[-1][1]
-            n = self.film_nodes
-            if self.jfo:
-                parts["film_fraction"] = (1.0 + np.minimum(x[:n], 0.0)) / math.sqrt(n)
-            if x.size > n:
-                parts["deformation"] = x[n:] / math.sqrt(n)
+        for name, film in self.films.items():
+            history = state.history(name)
+            if history:
+                parts.update(film.parts(history[-1][1]))
         if math.isfinite(state.temperature):
             parts["temperature"] = np.array([state.temperature / TEMPERATURE_SCALE])
         return parts
@@ -175,20 +265,16 @@ class CycleMap:
         crank speed], of the pin's eccentricity in its bushing and of its rate (the free coordinates;
         the others follow from the constraints, and the crank's angle from its driver);
         ``film_fraction``, the largest change of theta at a film node; ``deformation``, the root mean
-        square over the film's nodes of the change of the modal deformation / clearance;
+        square over the film's nodes of the change of the modal deformation / clearance (the small
+        end's film; ``big_end_film_fraction``, ``big_end_deformation`` the big end's alike);
         ``temperature`` [K], the fixed point of the cycle's heat balance less the temperature it ran at
         (NaN for a part the state does not have)."""
         a, b = self.parts(start), self.parts(end)
-        n = max(self.film_nodes, 1)
         change = dict.fromkeys(STATE_PARTS, math.nan)
         for name in ("position", "velocity"):
             change[name] = float(np.linalg.norm(b[name] - a[name]))
-        if "film_fraction" in a and "film_fraction" in b:
-            change["film_fraction"] = float(
-                np.max(np.abs(b["film_fraction"] - a["film_fraction"])) * math.sqrt(n)
-            )
-        if "deformation" in a and "deformation" in b:
-            change["deformation"] = float(np.linalg.norm(b["deformation"] - a["deformation"]))
+        for film in self.films.values():
+            change.update(film.changes(a, b))
         if "temperature" in a and "temperature" in b:
             change["temperature"] = float(b["temperature"][0] - a["temperature"][0]) * TEMPERATURE_SCALE
         return change
@@ -239,16 +325,18 @@ class CycleMap:
         return start
 
     def _combine(self, alpha: np.ndarray, ends: list[EndState], end: EndState) -> EndState | None:
-        """sum alpha_j end_j at ``end``'s time, the correction applied alike to the film history's
+        """sum alpha_j end_j at ``end``'s time, the correction applied alike to each film history's
         states; admissible (module docstring) or None."""
         q_period = sum(a * self._period_q(e) for a, e in zip(alpha, ends))
         qd = sum(a * np.asarray(e.qd, dtype=float) for a, e in zip(alpha, ends))
         temperature = sum(a * e.temperature for a, e in zip(alpha, ends))
-        film_shift = None
-        if self.film_nodes and end.film and all(e.film for e in ends):
-            film_shift = sum(a * e.film[-1][1] for a, e in zip(alpha, ends)) - end.film[-1][1]
+        # each film's correction of its last state (the films whose history every end has)
+        film_shift = {
+            name: sum(a * e.history(name)[-1][1] for a, e in zip(alpha, ends)) - end.history(name)[-1][1]
+            for name in self.films
+            if end.history(name) and all(e.history(name) for e in ends)
+        }
         plain_q = self._period_q(end)
-        mechanism = self.run.em.mechanism
         joints = self.run.em.clearance_joints
         # a finite-element film (small end, big end) has its own largest eccentricity ratio
         films = {"small_end": self.run.model, "big_end": getattr(self.run, "big_model", None)}
@@ -259,31 +347,32 @@ class CycleMap:
         for _ in range(6):  # the step halved toward the plain start until the pin is inside
             q = np.array(end.q, dtype=float) + (q_period - plain_q)
             try:
-                q = project_positions(mechanism, q, end.t)
+                q, v = onto_constraints(self.run.em, q, qd, end.t)
             except Exception:  # noqa: BLE001 - a configuration that does not assemble: a shorter step
                 q = None
             if q is not None:
-                v = project_velocities(mechanism, q, qd, end.t)
                 inside = all(
                     math.hypot(*joints[name].kinematics(q, v).ecc) < 0.98 * limit
                     for name, limit in limits.items()
                 )
                 if inside:
-                    film = end.film
-                    if film_shift is not None:
-                        film = [(time_s, self._admissible(x + film_shift)) for time_s, x in end.film]
-                    return EndState(end.t, q, v, film, temperature)
+                    moved = {
+                        name: [
+                            (time_s, self.films[name].admissible(x + shift))
+                            for time_s, x in end.history(name)
+                        ]
+                        for name, shift in film_shift.items()
+                    }
+                    return EndState(
+                        end.t,
+                        q,
+                        v,
+                        moved.get("small_end", end.film),
+                        temperature,
+                        moved.get("big_end", end.big_end_film),
+                    )
             q_period = 0.5 * (q_period + plain_q)
             qd = 0.5 * (qd + np.asarray(end.qd, dtype=float))
             temperature = 0.5 * (temperature + end.temperature)
-            if film_shift is not None:
-                film_shift = 0.5 * film_shift
+            film_shift = {name: 0.5 * shift for name, shift in film_shift.items()}
         return None
-
-    def _admissible(self, x: np.ndarray) -> np.ndarray:
-        """A film state with its film fraction in [0, 1] (JFO: u >= -1)."""
-        x = np.array(x, dtype=float)
-        if self.jfo:
-            n = self.film_nodes
-            x[:n] = np.maximum(x[:n], -1.0)
-        return x

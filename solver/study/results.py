@@ -413,8 +413,10 @@ def write_results(
             "such part or the cycle was resumed: state_change_position [clearance] and "
             "state_change_velocity [clearance x crank speed] (the pin's eccentricity in the bushing and "
             "its rate), state_change_film_fraction (largest at a node), state_change_deformation "
-            "[clearance, rms over the film's nodes], state_change_temperature [K] (the heat balance's "
-            "fixed point less the cycle's temperature); extrapolated_start: 1 if the cycle started from "
+            "[clearance, rms over the film's nodes] (the small end's film), state_change_temperature [K] "
+            "(the heat balance's fixed point less the cycle's temperature), "
+            "state_change_big_end_film_fraction and state_change_big_end_deformation (the big end's "
+            "film alike); extrapolated_start: 1 if the cycle started from "
             "an extrapolated state (solver.study.periodic)",
             "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
             + "; one value per computed cycle, the first cycle first",

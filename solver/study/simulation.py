@@ -81,7 +81,7 @@ class Run:
         self.big_joint = big_end_joint_from_case(case, self.engine, comm)
         self.big_model = getattr(self.big_joint, "model", None)
         # the big end's film carries a history (JFO film fraction, Winkler shell): committed as the small
-        # end's (solver.study.cycles), kept in the checkpoint; the cycle map does not extrapolate then
+        # end's (solver.study.cycles), kept in the checkpoint, a part of the cycle map's state
         self.big_has_history = self.big_model is not None and self.big_model.has_history
         self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
         pin = None
@@ -116,6 +116,7 @@ class Run:
         # the film's committed history at the last cycle's start (after its first output), the start
         # state's film part for the cycle map (solver.study.periodic)
         self.start_film: list[tuple[float, np.ndarray]] = []
+        self.start_big_end_film: list[tuple[float, np.ndarray]] = []  # the big end's alike
 
     @property
     def film_models(self) -> list:
