@@ -30,7 +30,7 @@ CAVITATED_SHEARS = ("film-fraction", "full")
 
 #: how a choice is named: case key, command-line flag
 _CAVITATION = "oil.cavitation = {0!r} (--cavitation {0})"
-_BUSHING = "small_end.elastic = {0!r} (--elastic {0})"
+_BUSHING = "{1}.elastic = {0!r} (--elastic {0})"
 _INLET = "oil.inlet = {0!r} (--inlet {0})"
 _SUPPLY = "an oil supply (oil.inlet = 'hole' or a groove; --hole-*, --groove-*, --circumferential-groove)"
 
@@ -55,6 +55,7 @@ def check_film(
     ranks: int = 1,
     quasi_static: bool = False,
     sigmas: tuple[float, ...] = (),
+    joint: str = "small_end",
 ) -> None:
     """Raise InputError (one line) unless the choices go together.
 
@@ -72,16 +73,17 @@ def check_film(
             is then allowed with a history (its frame turns with the eccentricity, which a committed
             state could not follow).
         sigmas: the composite roughness of the roughness and of the contact model, when given [m].
+        joint: the case section whose ``elastic`` key chose the bushing (its name in the messages).
     """
     _choice("cavitation", cavitation, CAVITATION_LAWS, "oil.cavitation", "--cavitation")
-    _choice("bushing", bushing, BUSHINGS, "small_end.elastic", "--elastic")
+    _choice("bushing", bushing, BUSHINGS, f"{joint}.elastic", "--elastic")
     _choice("inlet", inlet, INLETS, "oil.inlet", "--inlet")
     _choice("transport", transport, TRANSPORTS, "solver.film_fraction_transport", "transport")
     _choice("cavitated_shear", cavitated_shear, CAVITATED_SHEARS, "oil.cavitated_shear", "--cavitated-shear")
     if degree not in (1, 2):
         raise InputError(f"degree = {degree} (--degree {degree}) is out of range (allowed: 1 or 2)")
     special = [
-        text.format(value)
+        text.format(value, joint)
         for text, value, default in ((_CAVITATION, cavitation, "reynolds"), (_BUSHING, bushing, "none"))
         if value != default
     ]
@@ -97,8 +99,8 @@ def check_film(
             )
         if bushing == "fe":
             raise InputError(
-                f"{_INLET.format(inlet)} with {_BUSHING.format(bushing)} is out of range: the max-gap frame "
-                "turns the film against the eye (allowed: inlet 'none', with or without a supply)"
+                f"{_INLET.format(inlet)} with {_BUSHING.format(bushing, joint)} is out of range: the max-gap "
+                "frame turns the film against the eye (allowed: inlet 'none', with or without a supply)"
             )
         if special and not quasi_static:
             raise InputError(

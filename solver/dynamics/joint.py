@@ -628,13 +628,26 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     return FilmJoint(model), model
 
 
-def _film_model(case: Case, engine, comm, *, radius, width, clearance, supply: dict, bushing, surface=None):
+def _film_model(
+    case: Case,
+    engine,
+    comm,
+    *,
+    radius,
+    width,
+    clearance,
+    supply: dict,
+    bushing,
+    surface=None,
+    joint="small_end",
+):
     """The finite-element film (solver.film.model.Film) of a journal of ``radius`` in a bearing of
     ``width`` and radial ``clearance`` [m]: the oil of ``[oil]`` (viscosity, cavitation law and pressure,
     piezoviscosity, cavitated shear; the inlet max-gap or none as ``oil.inlet``, the supply ``supply``:
     keyword arguments of solver.film.types.Bearing), the roughness and contact of ``[surface]`` (or of
     ``surface``, a solver.film.surface.Surface), the mesh and transport of ``[solver]``, ``omega_ref`` the
-    crank speed, and ``bushing`` (None: rigid)."""
+    crank speed, and ``bushing`` (None: rigid); ``joint``: the case section that chose the bushing, named
+    by the film's one-line errors."""
     from solver.film.spec import FilmSpec
     from solver.film.types import Bearing
     from solver.film.viscosity import viscosity_law
@@ -663,6 +676,7 @@ def _film_model(case: Case, engine, comm, *, radius, width, clearance, supply: d
         cavitation=oil.cavitation,
         transport=solver.film_fraction_transport,
         cavitated_shear=oil.cavitated_shear,
+        joint=joint,
     )
     from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
 
@@ -770,6 +784,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 supply={},
                 bushing=bushing,
                 surface=surface_from_case(surf),
+                joint="big_end",
             )
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
@@ -797,6 +812,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             },
             bushing=bushing,
             surface=surface,
+            joint="big_end",
         )
         return JournalFrameFilmJoint(FilmJoint(model), crankpin_angle_to_rod(engine))
     raise InputError(

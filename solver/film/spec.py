@@ -46,6 +46,8 @@ class FilmSpec:
             as the Reynolds film; the behaviour before 2026-11-27). No effect on a Reynolds film.
         quasi_static: solved without time (the bearing command, equilibria): no history is committed,
             so the max-gap inlet is allowed with a history (solver.film_rules).
+        joint: the engine's joint whose case section chose the bushing ("small_end", "big_end"): the
+            section its one-line errors name.
     """
 
     bearing: Bearing
@@ -64,6 +66,7 @@ class FilmSpec:
     transport: str = "limited"
     cavitated_shear: str = "film-fraction"
     quasi_static: bool = False
+    joint: str = "small_end"
 
     def __post_init__(self) -> None:
         self.check()
@@ -99,4 +102,5 @@ class FilmSpec:
             ranks=ranks,
             quasi_static=self.quasi_static,
             sigmas=tuple(x.sigma for x in (self.roughness, self.contact) if x is not None),
+            joint=self.joint,
         )

@@ -377,3 +377,39 @@ def test_bad_big_end_film_keys_are_one_line_errors(tmp_path, big_end, oil, field
         load_case(case_dir)
     text = str(error.value)
     assert field in text and "\n" not in text
+
+
+class _TwoRanks:
+    """A communicator's size as the film's rules read it (solver.film.factory checks before it builds)."""
+
+    size = 2
+
+
+def test_an_elastic_big_end_on_several_ranks_names_the_big_ends_key(tmp_path, monkeypatch):
+    """The elastic film runs on one rank (solver.film_rules): a Winkler big end's film on two ranks is
+    refused with one line naming big_end.elastic, not the small end's key (it did before); the big end's
+    film specification names its joint (the rigid one passes that rule: its build is stopped after the
+    check)."""
+    winkler = load_case(
+        make_case(tmp_path / "w", 'joint = "ideal"\n', 'joint = "mixed-fem"\nelastic = "winkler"\n')
+    )
+    with pytest.raises(InputError) as error:
+        big_end_joint_from_case(winkler, comm=_TwoRanks())
+    text = str(error.value)
+    assert text.startswith("big_end.elastic = 'winkler'") and "serial P1 film" in text
+    assert "small_end" not in text and "\n" not in text
+
+    import solver.film.factory
+
+    checked = []
+
+    def check_only(spec, comm):
+        spec.check(ranks=comm.size)
+        checked.append(spec.joint)
+        raise RuntimeError("checked")
+
+    monkeypatch.setattr(solver.film.factory, "make_film", check_only)
+    rigid = load_case(make_case(tmp_path / "r", 'joint = "ideal"\n', 'joint = "mixed-fem"\n'))
+    with pytest.raises(RuntimeError, match="checked"):
+        big_end_joint_from_case(rigid, comm=_TwoRanks())
+    assert checked == ["big_end"]
