@@ -25,15 +25,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-PARTS = (
-    "position",
-    "velocity",
-    "film_fraction",
-    "deformation",
-    "temperature",
-    "big_end_film_fraction",
-    "big_end_deformation",
-)
+from solver.study.periodic import STATE_PARTS as PARTS  # the parts whose change each cycle logs
 
 
 def with_acceleration(source: Path, work: Path, acceleration: str) -> Path:

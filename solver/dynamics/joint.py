@@ -597,24 +597,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
     if joint != "mixed-fem":
         raise InputError(f"joint = {joint!r} is out of range (allowed: {', '.join(map(repr, JOINTS))})")
     # the film's rules were checked when the case was read (solver.case, solver.film_rules)
-    from solver.film.bushings import bushing_model
-
-    bushing = bushing_model(
-        se.elastic,
-        radius=se.pin_radius,
-        width=se.width,
-        bushing_thickness=se.bushing_thickness,
-        eye_outer_radius=se.eye_outer_radius,
-        E_eye=se.E_eye,
-        nu_eye=se.nu_eye,
-        E_bushing=surf.E_bushing,
-        nu_bushing=surf.nu_bushing,
-        shank_half_angle_deg=math.degrees(se.shank_half_angle),
-        modes=se.compliance_modes,
-        tolerance=se.compliance_tolerance,
-        basis=se.compliance_basis,
-        grid=(se.compliance_grid_theta, se.compliance_grid_z),
-    )
+    bushing = eye_bushing(se, se.pin_radius, surf, SMALL_END_SHANK_ANGLE_DEG)
     model = _film_model(
         case,
         engine,
@@ -697,38 +680,47 @@ def crankpin_angle_to_rod(engine):
     return angle
 
 
-#: the big eye's shank in the big end's film (bushing) frame, the rod's: its x' axis points from the big
-#: end to the small end (solver.dynamics.engine), so the shank is at 0 deg (the small end's at 180 deg)
+#: the eyes' shanks in their films' (bushings') frame, the rod's: its x' axis points from the big end to
+#: the small end (solver.dynamics.engine), so the small eye's shank is at 180 deg, the big eye's at 0 deg
+SMALL_END_SHANK_ANGLE_DEG = 180.0
 BIG_END_SHANK_ANGLE_DEG = 0.0
 
 
-def big_eye_bushing(case: Case):
-    """The big end's shell as the film's bushing description (solver.film.bushings): None (rigid), a
-    Winkler layer, or the finite-element big eye (``big_end.elastic = "fe"``: an FEEye, the eye of
-    ``big_end.eye_outer_radius`` and its moduli with the shell of ``big_end.bushing_thickness`` and the
-    moduli of ``[big_end_surface]``, clamped on the arc of ``big_end.shank_half_angle`` around
-    ``BIG_END_SHANK_ANGLE_DEG``, toward the small end; the cap is continuous with the eye). Cheap:
-    nothing is meshed here."""
+def eye_bushing(section, radius: float, surface, shank_angle_deg: float):
+    """A rod eye's shell as the film's bushing description (solver.film.bushings): None (rigid), a Winkler
+    layer, or the finite-element eye (an FEEye): the keys of ``section`` (solver.case.SmallEnd or BigEnd:
+    ``elastic``, the width, the shell's thickness, the eye's radius and moduli, the clamp's half angle and
+    the compliance's basis, modes, tolerance and grid) round a bore of ``radius`` [m], the shell's moduli
+    of ``surface`` (solver.case.Surface: E_bushing, nu_bushing), clamped around ``shank_angle_deg``.
+    Cheap: nothing is meshed here."""
     from solver.film.bushings import bushing_model
 
-    be, surf = case.big_end, case.big_end_surface
     return bushing_model(
-        be.elastic,
-        radius=be.radius,
-        width=be.width,
-        bushing_thickness=be.bushing_thickness,
-        eye_outer_radius=be.eye_outer_radius,
-        E_eye=be.E_eye,
-        nu_eye=be.nu_eye,
-        E_bushing=surf.E_bushing,
-        nu_bushing=surf.nu_bushing,
-        shank_half_angle_deg=math.degrees(be.shank_half_angle),
-        shank_angle_deg=BIG_END_SHANK_ANGLE_DEG,
-        modes=be.compliance_modes,
-        tolerance=be.compliance_tolerance,
-        basis=be.compliance_basis,
-        grid=(be.compliance_grid_theta, be.compliance_grid_z),
+        section.elastic,
+        radius=radius,
+        width=section.width,
+        bushing_thickness=section.bushing_thickness,
+        eye_outer_radius=section.eye_outer_radius,
+        E_eye=section.E_eye,
+        nu_eye=section.nu_eye,
+        E_bushing=surface.E_bushing,
+        nu_bushing=surface.nu_bushing,
+        shank_half_angle_deg=math.degrees(section.shank_half_angle),
+        shank_angle_deg=shank_angle_deg,
+        modes=section.compliance_modes,
+        tolerance=section.compliance_tolerance,
+        basis=section.compliance_basis,
+        grid=(section.compliance_grid_theta, section.compliance_grid_z),
     )
+
+
+def big_eye_bushing(case: Case):
+    """The big end's shell (:func:`eye_bushing`): rigid, a Winkler layer, or the finite-element big eye
+    (``big_end.elastic = "fe"``: the eye of ``big_end.eye_outer_radius`` with the shell of
+    ``big_end.bushing_thickness`` and the moduli of ``[big_end_surface]``, clamped on the arc of
+    ``big_end.shank_half_angle`` around ``BIG_END_SHANK_ANGLE_DEG``, toward the small end; the cap is
+    continuous with the eye)."""
+    return eye_bushing(case.big_end, case.big_end.radius, case.big_end_surface, BIG_END_SHANK_ANGLE_DEG)
 
 
 def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
