@@ -670,7 +670,7 @@ FIELDS: tuple[FieldSpec, ...] = (
         "the moduli big_end_surface.E_bushing_GPa, big_end_surface.nu_bushing) or fe (the finite-element "
         "compliance of the big eye, cap continuous with it, and that shell, clamped where the eye joins "
         "the shank, toward the small end; cached on disk; docs/models.md); a mixed-fem big end, inlet none "
-        "or a supply; fe without big_end.supply = hole",
+        "or a supply (with big_end.supply = hole the eye's shapes are turned into the crankpin's frame)",
     ),
     _f(
         "big_end",
@@ -1693,8 +1693,8 @@ def _check_pin(case: Case) -> None:
 
 
 def _check_big_end(case: Case) -> None:
-    """A finite-element big end: the film of [oil] (Reynolds or JFO) in a rigid eye or a Winkler shell;
-    a supply hole in the crankpin fed into it."""
+    """A finite-element big end: the film of [oil] (Reynolds or JFO) in a rigid eye, a Winkler shell or
+    the FE eye; a supply hole in the crankpin fed into it."""
     be = case.big_end
     if be.supply == "hole":
         if be.joint != "mixed-fem":
@@ -1724,12 +1724,6 @@ def _check_big_end(case: Case) -> None:
         raise InputError(
             f"big_end.elastic = {be.elastic!r} deforms the finite-element film's shell (allowed with "
             f'big_end.joint = "mixed-fem"; got {be.joint!r}; or big_end.elastic = "none")'
-        )
-    if be.elastic == "fe" and be.supply == "hole":
-        raise InputError(
-            'big_end.elastic = "fe" with big_end.supply = "hole" is out of range: the eye\'s compliance is '
-            "fixed in the rod's frame, the film with the crankpin's hole is solved in the crankpin's "
-            '(allowed: big_end.elastic = "winkler" with the hole, or "fe" with big_end.supply = "none")'
         )
     if be.elastic != "none" and case.oil.inlet == "max-gap":
         raise InputError(

@@ -254,12 +254,19 @@ class JournalFrameFilmJoint(ClearanceJoint):
     mesh, in the journal's frame: its rate is the change at a point of that frame, the ``dh/dt`` of the
     Reynolds equation written in it (the slip of the bushing's surface is in ``omega_f``); a Winkler
     shell's ``w = k p`` is local, so the shell's deformation at a point is the same whichever surface
-    carries it. ``commit(t)`` commits the film's last evaluated state (FilmJoint.commit).
+    carries it. The FE eye's modes are not: they belong to the bushing (the rod's eye) and the film's
+    node at theta is at theta + phi(t) on it, so the film takes the eye's shapes there,
+    ``Phi(phi) = T(theta + phi, z) Psi``, for each solve's time, and the deformation's rate at a node
+    through the committed states each with its own time's shapes (the deformation sliding past the
+    node; solver.film.model.Film.set_bushing_angle, given ``frame_angle`` here). The modal unknowns do
+    not turn, and the Jacobian's form is unchanged (exact at a given phi). ``commit(t)`` commits the
+    film's last evaluated state (FilmJoint.commit).
     """
 
     def __init__(self, film: FilmJoint, frame_angle):
         self.film, self.model, self.frame_angle = film, film.model, frame_angle
         self.OUTPUTS = film.OUTPUTS
+        film.model.set_bushing_angle(frame_angle)  # (the FE eye's shapes turn with it: the class docstring)
 
     def commit(self, t: float) -> np.ndarray | None:
         """A film with history: its last evaluated state, at time t, starts the next rate (in the journal's
@@ -731,10 +738,10 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
     cavitation law and max-gap inlet of ``[oil]``, the roughness of ``[big_end_surface]``, the mesh of
     ``[solver]``, the shell of ``big_end.elastic``: rigid, Winkler or the finite-element big eye
     (``big_eye_bushing``); with ``big_end.supply = "hole"`` the hole in the crankpin, the film solved in
-    the crankpin's frame: a :class:`JournalFrameFilmJoint`, rigid or Winkler only); or the dry contact
-    (Hertz stiffness from ``[big_end_surface]``'s moduli). The big end's surface (``case.big_end_surface``:
-    the crankpin is its pin, the big eye's shell its bushing) is its own; the small end and the pin's
-    bosses keep ``[surface]``."""
+    the crankpin's frame: a :class:`JournalFrameFilmJoint`, the FE eye's shapes turned into it); or the
+    dry contact (Hertz stiffness from ``[big_end_surface]``'s moduli). The big end's surface
+    (``case.big_end_surface``: the crankpin is its pin, the big eye's shell its bushing) is its own; the
+    small end and the pin's bosses keep ``[surface]``."""
     be, surf = case.big_end, case.big_end_surface
     if be.joint == "ideal":
         return None

@@ -143,41 +143,46 @@ class CoupledNewton:
         cells = op.cells
         c3 = np.repeat(cells, 3)
         self.areas = op.nodal_areas  # lumped nodal areas a_i (/ R^2)
-        average = scipy.sparse.csr_matrix(
+        self._average = scipy.sparse.csr_matrix(
             (np.full(3 * len(cells), 1.0 / 3.0), (c3, op.dofs.ravel())), shape=(len(cells), n)
         )  # midpoint value of a P1 field
-        slope = scipy.sparse.csr_matrix((op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n))
-        self.average_Phi = (average @ Phi).tocsr()  # dW_K/dq
-        self.slope_Phi = (slope @ Phi).tocsr()  # dW'_K/dq
+        self._slope = scipy.sparse.csr_matrix(
+            (op.g_theta.ravel(), (c3, op.dofs.ravel())), shape=(len(cells), n)
+        )  # its slope d/dtheta
         # with a few modes the shapes are dense: their products with the cells' sparse matrices as dense
         # arrays (a sparse-sparse product with a dense result costs ~10 x more)
         self.dense = m < n and not self.layered
         self.to_nodes = op.T_f  # (n, cells): |K|/3 to each vertex
-        # the shapes, for deformation() and modal_forces(): a dense array with a few modes (a CSR matrix of
-        # its n m entries multiplies ~3 x slower)
-        self.Phi = Phi.toarray() if self.dense else Phi
         self.interior = np.ones(n)
         self.interior[op.bc_dofs] = 0.0
-        self._Phi_sparse = Phi
-        if self.dense:
-            self.average_Phi_dense = self.average_Phi.toarray()
         if self.dense or self.layered:
             self.border = border_map(op, n)
-        if self.layered:  # the modes' shapes dense (n x modes), and the midpoint value of a P1 field
-            self.Phi_modes = Phi[:, n:].toarray()
-            self.average = average
+        if self.layered:  # the midpoint value of a P1 field
+            self.average = self._average
             self._pattern_rows = np.repeat(np.arange(n), np.diff(op.indptr))  # the row of each entry of M
             self._to_nodes_csc = self.to_nodes.tocsc()  # (its columns of the cells in contact)
-        self._set_gains(gains)
+        self.gains = np.asarray(gains, float)
+        self._set_shapes(Phi)
         # one sparsity pattern for every Jacobian: the union of the blocks' structures
         ones = scipy.sparse.csr_matrix(
             (np.ones(3 * len(cells)), (op.dofs.ravel(), c3)), shape=(n, len(cells))
         )
         A_pattern = scipy.sparse.csr_matrix((np.ones(len(op.indices)), op.indices, op.indptr), shape=(n, n))
-        absolute = lambda M: abs(M).tocsr()  # noqa: E731
-        Pq = ones @ (absolute(self.average_Phi) + absolute(self.slope_Phi))
-        qq = absolute(self.gPhiT) @ ones @ absolute(self.average_Phi) + scipy.sparse.identity(m)
-        pattern = scipy.sparse.bmat([[A_pattern, Pq], [absolute(self.J_qP), qq]], format="csr")
+        # the modes' columns full (``set_shapes`` may change the shapes, not the pattern; the modes' shapes
+        # have no zero entries, so this is their pattern anyway)
+        structure = abs(Phi).tocsr()
+        if self.dense:
+            structure = scipy.sparse.csr_matrix(np.ones((n, m)))
+        elif self.layered and self.modes:
+            structure = scipy.sparse.hstack(
+                [Phi[:, :n], scipy.sparse.csr_matrix(np.ones((n, self.modes)))], format="csr"
+            )
+        average_structure = (self._average @ structure).tocsr()
+        Pq = ones @ (abs(average_structure) + abs(self._slope @ structure))
+        gPhiT_structure = scipy.sparse.diags(self.gains) @ structure.T
+        qq = abs(gPhiT_structure) @ ones @ abs(average_structure) + scipy.sparse.identity(m)
+        J_qP_structure = abs(gPhiT_structure @ scipy.sparse.diags(self.areas))
+        pattern = scipy.sparse.bmat([[A_pattern, Pq], [J_qP_structure, qq]], format="csr")
         pattern.sum_duplicates()
         pattern.sort_indices()
         self.N = n + m
@@ -200,6 +205,35 @@ class CoupledNewton:
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _scatter's lookup
         self.iterations = 0
         block.attach(self)
+
+    def _set_shapes(self, Phi) -> None:
+        """The shapes Phi (n x m) and the blocks built from them (and from the gains)."""
+        Phi = scipy.sparse.csr_matrix(Phi)
+        n = self.n
+        self._Phi_sparse = Phi
+        self.average_Phi = (self._average @ Phi).tocsr()  # dW_K/dq
+        self.slope_Phi = (self._slope @ Phi).tocsr()  # dW'_K/dq
+        # the shapes, for deformation() and modal_forces(): a dense array with a few modes (a CSR matrix of
+        # its n m entries multiplies ~3 x slower)
+        self.Phi = Phi.toarray() if self.dense else Phi
+        if self.dense:
+            self.average_Phi_dense = self.average_Phi.toarray()
+        if self.layered:  # the modes' shapes dense (n x modes)
+            self.Phi_modes = Phi[:, n:].toarray()
+        self._set_gains(self.gains)
+
+    def set_shapes(self, Phi) -> None:
+        """New shapes of the same size and kind (solver.film.bushings.Bushing.shapes: the FE eye's seen from
+        a frame turned against it, solver.film.solvers.CoupledFilm.set_bushing_angle), the gains kept:
+        what is built from Phi anew; the pattern stays (the modes' columns are full in it), the state
+        (u, q) stays (the modal unknowns are the eye's), the cached evaluation is dropped. SchurLU's last
+        Schur complement only preconditions the next factorisation's Schur system (solved to 1e-12), and
+        it is formed anew when it no longer does so well."""
+        Phi = scipy.sparse.csr_matrix(Phi)
+        if Phi.shape != (self.n, self.m) or (self.layered and not _is_identity(Phi[:, : self.n])):
+            raise ValueError(f"shapes of shape {Phi.shape} for a coupled Newton of {self.n} x {self.m}")
+        self._set_shapes(Phi)
+        self.state_x = self.residual_x = self.k = self.slope = None
 
     def _set_gains(self, gains) -> None:
         """The gains g and the blocks built from them: g Phi^T, dR_q/dP = -g Phi^T diag(a) and, with a few

@@ -50,26 +50,28 @@ class FilmHistory:
         return [entry for entry in self._entries if entry[0] < time_s][-2:]
 
     def rate(
-        self, time_s: float | None, field: Callable[[np.ndarray], np.ndarray]
+        self, time_s: float | None, field: Callable[[float, np.ndarray], np.ndarray]
     ) -> tuple[float, np.ndarray] | None:
         """A field's rate at ``time_s`` as ``inverse_step (f - reference)``, f its unknown value there:
         the variable-step BDF2 derivative through the two committed states before ``time_s`` (second
         order in the step), ``df/dt = [(1 + 2w)/(1 + w) f - (1 + w) f_n + w^2/(1 + w) f_n-1] / h`` with
         ``h = t - t_n``, ``w = h / (t_n - t_n-1)``; implicit Euler from the last one when there is only
         one (or w is above BDF2_MAX_RATIO). Returns (inverse_step [1/s], reference), None without a
-        committed state (quasi-static); ``field(state)`` is the field in a committed state. Sets
-        ``start``, the solve's fall-back start (the last committed state)."""
+        committed state (quasi-static); ``field(t_k, state)`` is the field in the state committed at
+        t_k (at the point where the rate is taken: a film whose shapes turn with time evaluates each
+        committed state with its own time's shapes). Sets ``start``, the solve's fall-back start (the
+        last committed state)."""
         history = self.before(time_s)
         self.start = history[-1] if history else None
         if not history:
             return None
         t_n, x_n = history[-1]
         h = time_s - t_n
-        inverse_step, reference = 1.0 / h, field(x_n)
+        inverse_step, reference = 1.0 / h, field(t_n, x_n)
         if len(history) == 2:
             t_m, x_m = history[0]
             w = h / (t_n - t_m)
             if w <= self.BDF2_MAX_RATIO:
                 inverse_step = (1 + 2 * w) / ((1 + w) * h)
-                reference = ((1 + w) * reference - w**2 / (1 + w) * field(x_m)) / (inverse_step * h)
+                reference = ((1 + w) * reference - w**2 / (1 + w) * field(t_m, x_m)) / (inverse_step * h)
         return inverse_step, reference

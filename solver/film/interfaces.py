@@ -33,6 +33,7 @@ class FilmSolver(Protocol):
     def solve(self) -> int: ...  # at the space's constants; the pressure in space.P; iterations
     def fall_back(self) -> bool: ...  # after a failed solve: True if a retry may succeed
     def turn(self, turn: Any, delta: float) -> None: ...  # its own state in a turned frame (P aside)
+    def set_bushing_angle(self, angle: Any) -> None: ...  # the bushing's turn against the film, phi(t)
     def sensitivities(self, dr: list) -> tuple[list, list | None, list | None]: ...  # (dP, dW, dtheta)
     def film_fraction(self) -> np.ndarray | None: ...  # theta of the last solve (owned dofs); None: none
     def state(self) -> np.ndarray | None: ...  # the history state of the last solve, a copy

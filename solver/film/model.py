@@ -140,6 +140,16 @@ class Film:
         eps = np.asarray(in_frame(kin, self._frame_angle(kin)).ecc, float) / self.bearing.clearance
         self.solver.start_near(eps)
 
+    def set_bushing_angle(self, angle) -> None:
+        """The bushing turned against the film's frame by ``angle(t)`` [rad], a function of the solve's
+        time (None: not turned; the default): a film node at theta is at theta + angle(t) on the bushing.
+        For a film solved in the journal's frame (solver.dynamics.joint.JournalFrameFilmJoint): the FE
+        eye's shapes are taken at the turned nodes for each solve's time, and the deformation's rate
+        through the committed states each with its own time's shapes
+        (solver.film.solvers.CoupledFilm.set_bushing_angle); nothing changes for a rigid film or a
+        Winkler layer, whose deformation is local."""
+        self.solver.set_bushing_angle(angle)
+
     # -- history ------------------------------------------------------------------------------------
     @property
     def has_history(self) -> bool:

@@ -17,6 +17,7 @@ import logging
 import math
 
 import numpy as np
+import scipy.sparse
 import ufl
 from ufl.algorithms import expand_derivatives
 
@@ -86,6 +87,9 @@ class ReynoldsVI:
 
     def turn(self, turn, delta: float) -> None:
         pass
+
+    def set_bushing_angle(self, angle) -> None:
+        pass  # (no bushing)
 
     def sensitivities(self, dr: list) -> tuple[list, None, None]:
         return self.vi.sensitivities(dr), None, None
@@ -194,6 +198,9 @@ class RigidJFO:
     def turn(self, turn, delta: float) -> None:
         pass
 
+    def set_bushing_angle(self, angle) -> None:
+        pass  # (no bushing)
+
     def sensitivities(self, dr: list) -> tuple[list, None, list]:
         """(dP vectors, None, the film fraction's arrays)."""
         n = self.space.n
@@ -278,6 +285,11 @@ class CoupledFilm:
         # where the bushing's shapes are taken: the film's nodes (theta, z [m]) and their lumped areas
         self.nodes = (np.arctan2(coords[:, 1], coords[:, 0]), coords[:, 2] * R, operator.nodal_areas)
         shapes = bushing.shapes(*self.nodes, space.scales)
+        #: the bushing's turn against the film's frame (``set_bushing_angle``): phi(t) [rad], or None; the
+        #: angle of the shapes the coupled Newton holds, and the shapes at the committed states' angles
+        self._bushing_angle = None
+        self._shapes_angle = 0.0
+        self._turned: dict[float, np.ndarray] = {}
         self.ehd = CoupledNewton(
             operator,
             space.P,
@@ -333,7 +345,14 @@ class CoupledFilm:
         self.history = history
         space, ehd = self.space, self.ehd
         n = ehd.n
-        rate = history.rate(time_s, lambda x: ehd.deformation(x[n:]))
+        angle = self._bushing_angle
+        if angle is None or time_s is None:
+            rate = history.rate(time_s, lambda _, x: ehd.deformation(x[n:]))
+        else:
+            self._turn_shapes(float(angle(time_s)))
+            # each committed state's deformation at the film's nodes with its own time's shapes: the
+            # deformation sliding past a node is part of its rate there (set_bushing_angle)
+            rate = history.rate(time_s, lambda t, x: self._deformation_at(float(angle(t)), x[n:]))
         if rate is None:
             space.inverse_step.value = 0.0
         else:
@@ -346,6 +365,47 @@ class CoupledFilm:
 
     def turn(self, turn, delta: float) -> None:
         self.ehd.q = self.bushing.turn(self.ehd.q, turn, delta)
+
+    #: turned shapes kept for the committed states' angles (the history's SIZE and the current one)
+    TURNED_KEPT = 4
+
+    def set_bushing_angle(self, angle) -> None:
+        """The bushing turned against the film's frame by ``angle(t)`` [rad] (a function of time; None: not
+        turned): a film node at theta is at theta + angle(t) on the bushing. A film solved in the journal's
+        frame (solver.dynamics.joint.JournalFrameFilmJoint) sees the FE eye's shapes there,
+        ``Phi(phi) = T(theta + phi, z) Psi``; the modal unknowns q are the eye's and do not turn, and a
+        Winkler layer's (or the layer basis's node-by-node) part is local, the same at every angle.
+        Each solve at time t (``prepare``) sets the shapes of angle(t), and the deformation's rate at a
+        film node is taken through the committed states each at its own time's angle,
+        ``W_k = Phi(phi(t_k)) q_k``: the deformation sliding past the node, ``phi' dW/dtheta``, is in it
+        (the current shapes for all of them would drop it)."""
+        self._bushing_angle = angle
+        self._turned.clear()
+        if angle is None:
+            self._turn_shapes(0.0)
+
+    def _shapes_at(self, phi: float):
+        """The shapes (scipy CSR) at the film's nodes of the bushing turned by phi [rad]."""
+        if phi not in self._turned:
+            if len(self._turned) >= self.TURNED_KEPT:
+                del self._turned[next(iter(self._turned))]
+            theta, z, areas = self.nodes
+            Phi, _ = self.bushing.shapes(theta + phi, z, areas, self.space.scales)
+            self._turned[phi] = scipy.sparse.csr_matrix(Phi)
+        return self._turned[phi]
+
+    def _turn_shapes(self, phi: float) -> None:
+        """The coupled Newton's shapes those of the bushing turned by phi [rad] (nothing if they are)."""
+        if phi != self._shapes_angle and self.bushing.kind == "fe":  # (a Winkler layer's do not turn)
+            self.ehd.set_shapes(self._shapes_at(phi))
+            self._tangent = None  # (start_near's slope was of the other shapes)
+        self._shapes_angle = phi
+
+    def _deformation_at(self, phi: float, q: np.ndarray) -> np.ndarray:
+        """W = Phi(phi) q at the film's nodes (/ c)."""
+        if phi == self._shapes_angle or self.bushing.kind != "fe":
+            return self.ehd.deformation(q)
+        return self._shapes_at(phi) @ q
 
     def solve(self) -> int:
         """The coupled solve at the current constants (solver.film.ehd). The warm start is the last

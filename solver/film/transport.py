@@ -128,7 +128,7 @@ class FilmFractionTransport:
         state), and the transport's factors."""
         self.history = history
         n = self.space.n  # (a state is u, or (u, q) with an elastic bushing)
-        rate = history.rate(time_s, lambda x: 1.0 + np.minimum(x[:n], 0.0))
+        rate = history.rate(time_s, lambda _, x: 1.0 + np.minimum(x[:n], 0.0))
         self.rate = None if rate is None else (self.space.scales.omega_ref / rate[0], rate[1])
         self._limit()
 

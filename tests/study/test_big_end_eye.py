@@ -10,7 +10,7 @@ References:
   most opposite it (a clamped ring; the Lame expansion of the free ring in between);
 - the energy audit of a cycle with the FE big end (input work = dissipation + change of mechanical
   energy) and the deformation's size against the shell's ``t p / E`` and the eye's ``R p / E``;
-- bad keys: one line naming the key, from the loader and from the command line (exit status 2).
+- (the FE eye with the crankpin's hole, once refused: tests/study/test_big_end_eye_hole.py).
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from solver.dynamics.engine import build_mechanism, engine_from_case
 from solver.dynamics.joint import BIG_END_SHANK_ANGLE_DEG, DryContactJoint, big_eye_bushing
 from solver.film.bushings import FEEye
 from solver.study.simulation import run_case
-from tests.conftest import run_cli
 from tests.study.test_big_end import make_case
 from tests.study.test_big_end_history import _audit, _case
 
@@ -141,15 +140,3 @@ def test_a_cycle_with_the_fe_big_end_closes_its_energy(tmp_path, monkeypatch):
     angle, crank = float(ds.big_end_deformation_max_angle[j]), float(ds.crank_angle[j])
     print(f"largest opening {w[j] * 1e6:.3g} um at {math.degrees(angle):.0f} deg (rod frame), {crank:g} deg")
     assert math.cos(angle) < 0 and not 300 < crank < 480
-
-
-def test_the_run_command_refuses_the_fe_big_end_with_the_crankpins_hole(tmp_path):
-    """``run`` on a case with the FE big end and the crankpin's hole: exit status 2, one line naming
-    big_end.elastic and big_end.supply and the alternatives, no results."""
-    case_dir = make_case(tmp_path / "hole", 'joint = "ideal"\n', FE + 'supply = "hole"\n')
-    proc = run_cli("run", str(case_dir))
-    assert proc.returncode == 2, proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:"), proc.stderr
-    assert all(word in lines[0] for word in ("big_end.elastic", "big_end.supply", "winkler")), lines[0]
-    assert not (case_dir / "results" / "results.nc").exists()

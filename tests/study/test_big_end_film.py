@@ -318,7 +318,6 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
     [
         ('joint = "short-bearing"\nelastic = "winkler"\n', "", "big_end.elastic"),
         ('joint = "short-bearing"\nelastic = "fe"\n', "", "big_end.elastic"),
-        ('joint = "mixed-fem"\nelastic = "fe"\nsupply = "hole"\n', "", "big_end.supply"),
         ('joint = "mixed-fem"\nelastic = "fe"\n', 'inlet = "max-gap"\n', "big_end.elastic"),
         (
             'joint = "mixed-fem"\nelastic = "fe"\neye_outer_radius_mm = 25.8\n',
@@ -359,8 +358,7 @@ HOLE = 'joint = "mixed-fem"\nsupply = "hole"\n'
 )
 def test_bad_big_end_film_keys_are_one_line_errors(tmp_path, big_end, oil, field):
     """An elastic big end (Winkler or the FE eye) without the FE film or with the max-gap inlet, a shell
-    thicker than the crankpin's radius; the FE eye with the crankpin's hole (its compliance is fixed in
-    the rod's frame, the film in the crankpin's), an eye no thicker than the bore and its shell, more modes
+    thicker than the crankpin's radius; an eye no thicker than the bore and its shell, more modes
     than the compliance grid's nodes, a clamp of 90 deg half angle or more, an unknown basis, a zero
     modulus; a JFO big end whose edges are sealed (cavitation pressure 0, no supply of its own: the small
     end's hole does not feed it); an unknown model, a crankpin hole without the FE film or with the

@@ -54,7 +54,7 @@ def captured_specs(monkeypatch):
 
     def fake_make_film(spec, comm):
         specs.append(spec)
-        return types.SimpleNamespace(spec=spec, has_history=False)
+        return types.SimpleNamespace(spec=spec, has_history=False, set_bushing_angle=lambda angle: None)
 
     monkeypatch.setattr("solver.film.factory.make_film", fake_make_film)
     return specs
