@@ -730,6 +730,22 @@ def big_eye_bushing(case: Case):
     return eye_bushing(case.big_end, case.big_end.radius, case.big_end_surface, BIG_END_SHANK_ANGLE_DEG)
 
 
+def journal_frame_surface(surf):
+    """The film's surface (solver.film.surface.Surface) of a joint whose film is solved in its journal's
+    frame (:class:`JournalFrameFilmJoint`): the case's surface (solver.case.Surface) with the journal's
+    (pin_*) and the bushing's roughness and moduli exchanged, since that film's stationary surface is
+    the journal's."""
+    return dataclasses.replace(
+        surface_from_case(surf),
+        sigma_journal=surf.sigma_bushing,
+        sigma_bushing=surf.sigma_pin,
+        E_journal=surf.E_bushing,
+        nu_journal=surf.nu_bushing,
+        E_bushing=surf.E_pin,
+        nu_bushing=surf.nu_pin,
+    )
+
+
 def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
     """The big end's clearance-joint law (``big_end.joint``): ``None`` for an ideal big end, else the
     crankpin (journal, turning with the crank) in the rod's big eye (bushing): Ocvirk's short bearing in
@@ -788,15 +804,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
         # (JournalFrameFilmJoint), the hole fixed on its mesh
-        surface = dataclasses.replace(
-            surface_from_case(surf),
-            sigma_journal=surf.sigma_bushing,
-            sigma_bushing=surf.sigma_pin,
-            E_journal=surf.E_bushing,
-            nu_journal=surf.nu_bushing,
-            E_bushing=surf.E_pin,
-            nu_bushing=surf.nu_pin,
-        )
+        surface = journal_frame_surface(surf)
         model = _film_model(
             case,
             engine,

@@ -19,7 +19,6 @@ the module's own).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 from mpi4py import MPI
@@ -36,6 +35,7 @@ from solver.dynamics.joint import (
     _film_model,
     big_end_joint_from_case,
     big_eye_bushing,
+    journal_frame_surface,
     surface_from_case,
 )
 from solver.film.solvers import CoupledFilm
@@ -61,17 +61,8 @@ def big_end(tmp_path_factory):
         built = []
 
         def films(bushing, journal_frame: bool):
-            surface = surface_from_case(surf)
-            if journal_frame:  # (as big_end_joint_from_case with the hole)
-                surface = dataclasses.replace(
-                    surface,
-                    sigma_journal=surf.sigma_bushing,
-                    sigma_bushing=surf.sigma_pin,
-                    E_journal=surf.E_bushing,
-                    nu_journal=surf.nu_bushing,
-                    E_bushing=surf.E_pin,
-                    nu_bushing=surf.nu_pin,
-                )
+            # (as big_end_joint_from_case with the hole)
+            surface = journal_frame_surface(surf) if journal_frame else surface_from_case(surf)
             model = _film_model(
                 case,
                 engine,
