@@ -52,7 +52,7 @@ BIG_END_SUPPLIES = ("none", "hole")
 
 #: the piston pin (``small_end.pin``) and the floating pin's film in the piston bosses (``pin_boss.joint``)
 PINS = ("fixed", "floating")
-PIN_BOSS_JOINTS = ("short-bearing", "ideal")
+PIN_BOSS_JOINTS = ("short-bearing", "mixed-fem", "ideal")
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 DEG = math.pi / 180.0  # rad per degree
@@ -691,8 +691,11 @@ FIELDS: tuple[FieldSpec, ...] = (
         "short-bearing",
         choices=PIN_BOSS_JOINTS,
         doc="the floating pin in the piston's two bosses (small_end.pin = floating; ignored with a fixed "
-        "pin): Ocvirk short bearing (rigid, smooth, the oil of [oil]); ideal is the fixed pin, refused with "
-        "a floating one (use small_end.pin = fixed)",
+        "pin): Ocvirk short bearing (rigid, smooth, the oil of [oil]); mixed-fem: the finite-element film "
+        "(rigid bosses, the roughness and asperity contact of [pin_boss_surface], the oil of [oil] with its "
+        "Reynolds cavitation and its inlet max-gap or none, no supply, solver.mesh_size; with films = 2 one "
+        "film of half the width whose loads count twice; oil.cavitation = jfo refused); ideal is the fixed "
+        "pin, refused with a floating one (use small_end.pin = fixed)",
     ),
     _f(
         "pin_boss",
@@ -1212,13 +1215,17 @@ FIELDS: tuple[FieldSpec, ...] = (
     ),
 )
 
-# [big_end_surface]: the big end's (crankpin: pin_* keys; the big eye's shell: bushing_* keys), the keys of
-# [surface] with the same names, units and ranges; a key the section does not give takes the case's [surface]
-# value (load_case)
+# [big_end_surface]: the big end's (crankpin: pin_* keys; the big eye's shell: bushing_* keys) and
+# [pin_boss_surface]: the floating pin's bosses' (the pin: pin_* keys; the piston's bosses: bushing_* keys),
+# the keys of [surface] with the same names, units and ranges; a key the section does not give takes the
+# case's [surface] value (load_case)
 FIELDS = (
     tuple(spec for spec in FIELDS if spec.section != "solver")
     + tuple(
-        dataclasses.replace(spec, section="big_end_surface") for spec in FIELDS if spec.section == "surface"
+        dataclasses.replace(spec, section=section)
+        for section in ("big_end_surface", "pin_boss_surface")
+        for spec in FIELDS
+        if spec.section == "surface"
     )
     + tuple(spec for spec in FIELDS if spec.section == "solver")
 )
@@ -1264,10 +1271,11 @@ SECTIONS = (
     "oil",
     "surface",
     "big_end_surface",
+    "pin_boss_surface",
     "solver",
 )
 #: Sections whose absent keys are another section's values, not the defaults (not counted as defaulted).
-INHERITED = {"big_end_surface": "surface"}
+INHERITED = {"big_end_surface": "surface", "pin_boss_surface": "surface"}
 
 
 def _specs(section: str) -> tuple[FieldSpec, ...]:
@@ -1550,7 +1558,8 @@ class Oil:
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Surface:
     """Roughness, asperity contact and elastic constants (SI): the case's ``[surface]`` (the small end's pin
-    and bushing, the floating pin's bosses); :class:`BigEndSurface` is the big end's."""
+    and bushing); :class:`BigEndSurface` is the big end's, :class:`PinBossSurface` the floating pin's
+    bosses'."""
 
     section: ClassVar[str] = "surface"
 
@@ -1592,6 +1601,15 @@ class BigEndSurface(Surface):
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
+class PinBossSurface(Surface):
+    """The floating pin's bosses' surface (``[pin_boss_surface]``): the pin (pin_* keys) and the piston's
+    bosses (bushing_* keys), the keys, units and ranges of :class:`Surface`; messages name
+    ``pin_boss_surface.<key>``. Used by the finite-element boss film (``pin_boss.joint = "mixed-fem"``)."""
+
+    section: ClassVar[str] = "pin_boss_surface"
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class Solver:
     """Numerical settings of the coupled run (SI; angles in rad)."""
 
@@ -1628,9 +1646,10 @@ class Case:
         directory: the case directory (relative file names are resolved against it; results go to
             ``directory / "results"``).
         description: free text.
-        engine, gas, small_end, big_end, pin_boss, oil, surface, big_end_surface, solver: the sections
-            (``big_end_surface``: the big end's surface; load_case fills the keys its section does not
-            give from ``[surface]``; built directly, its default is the defaults of Surface).
+        engine, gas, small_end, big_end, pin_boss, oil, surface, big_end_surface, pin_boss_surface,
+            solver: the sections (``big_end_surface``, ``pin_boss_surface``: the big end's and the floating
+            pin's bosses' surfaces; load_case fills the keys their sections do not give from ``[surface]``;
+            built directly, their default is the defaults of Surface).
         defaulted: the sections the case file does not have (their defaults are used: all of them
             for an empty file, which is the reference engine); not a parameter of the case.
     """
@@ -1646,6 +1665,7 @@ class Case:
     oil: Oil = dataclasses.field(default_factory=Oil)
     surface: Surface = dataclasses.field(default_factory=Surface)
     big_end_surface: Surface = dataclasses.field(default_factory=BigEndSurface)
+    pin_boss_surface: Surface = dataclasses.field(default_factory=PinBossSurface)
     solver: Solver = dataclasses.field(default_factory=Solver)
     defaulted: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)
 
@@ -1688,7 +1708,14 @@ def _check_pin(case: Case) -> None:
     if case.pin_boss.joint == "ideal":
         raise InputError(
             'pin_boss.joint = "ideal" is the fixed pin (allowed with small_end.pin = "floating": '
-            "'short-bearing'; or small_end.pin = \"fixed\")"
+            "'short-bearing' or 'mixed-fem'; or small_end.pin = \"fixed\")"
+        )
+    if case.pin_boss.joint == "mixed-fem" and case.oil.cavitation != "reynolds":
+        # the bosses' film would carry a film fraction's history: not plumbed through the cycles for a third
+        # film (checkpoint, cycle map)
+        raise InputError(
+            f'pin_boss.joint = "mixed-fem" with oil.cavitation = {case.oil.cavitation!r} is out of range '
+            "(allowed: oil.cavitation = 'reynolds'; or pin_boss.joint = 'short-bearing')"
         )
 
 
@@ -1775,6 +1802,7 @@ _SECTION_CLASSES = {
     "oil": Oil,
     "surface": Surface,
     "big_end_surface": BigEndSurface,
+    "pin_boss_surface": PinBossSurface,
     "solver": Solver,
 }
 

@@ -45,6 +45,9 @@ _SECTIONS = {
     "surface": "`[surface]`: roughness, asperity contact and the dry joint",
     "big_end_surface": "`[big_end_surface]`: the big end's surface: crankpin (pin_* keys) and the big eye's "
     "shell (bushing_* keys); a key not given takes the value of `[surface]` (given or default)",
+    "pin_boss_surface": "`[pin_boss_surface]`: the floating pin's bosses' surface "
+    '(`pin_boss.joint = "mixed-fem"`): the pin (pin_* keys) and the piston\'s bosses (bushing_* keys); a key '
+    "not given takes the value of `[surface]` (given or default)",
     "solver": "`[solver]`: joint model, mesh, tolerances, cycles and outputs",
 }
 

@@ -14,6 +14,7 @@ d[e'_x, e'_y, de'_x/dt, de'_y/dt, omega_rel]``.
 - ``ShortBearingJoint``: Ocvirk's short-bearing film (Reynolds without the circumferential pressure
   flow, half-Sommerfeld cavitation) for rotation and squeeze, as most of the literature used.
 - ``DryContactJoint``: Lankarani-Nikravesh contact force with Coulomb friction, no lubricant.
+- ``EqualFilmsJoint``: equal finite-element films side by side (a floating pin's two bosses), one solved.
 
 A film solve that fails, or a state outside the clearance (``|e'| >= c`` for the film models), returns
 NaN forces: the implicit integrator then retries the step shorter (solver.dynamics.integrate).
@@ -319,6 +320,50 @@ class JournalFrameFilmJoint(ClearanceJoint):
                 2 * math.pi
             )
         return out
+
+
+class EqualFilmsJoint(ClearanceJoint):
+    """``films`` equal films side by side that move together, as one finite-element film solved once: a
+    floating pin's two bosses (``pin_boss.films = 2``).
+
+    The two bosses are equal (the same bore, width, clearance, surface and oil) and symmetric about the
+    pin's mid-plane, and the planar model neither tilts nor bends the pin: both see the same eccentricity,
+    its rate and the same relative speed, so both films are the same film. Their sum is ``films`` times
+    one film of one boss's width (each with its own two edges): the force, both torques, the Jacobian
+    (linear in the forces), and the flows, loads and oil volume of the outputs; the peak pressure, the
+    film thickness and the area ratios are each film's own. The dissipation, computed from the forces and
+    torques, counts ``films`` times with them.
+    """
+
+    #: the outputs (FilmJoint.OUTPUTS) that add over the films; the others are each film's own
+    SUMMED: ClassVar[tuple[str, ...]] = ("F_hydro", "F_asperity", "side_flow", "supply_flow", "oil_volume")
+
+    def __init__(self, film: FilmJoint, films: int):
+        if films not in (1, 2):
+            raise out_of_range("films", films, "1 or 2")
+        self.film, self.model, self.films = film, film.model, films
+        self.OUTPUTS = film.OUTPUTS
+
+    def commit(self, t: float) -> np.ndarray | None:
+        """A film with history: its last evaluated state starts the next rate (FilmJoint.commit)."""
+        return self.film.commit(t)
+
+    def set_viscosity(self, viscosity: float) -> None:
+        """The oil's viscosity [Pa s] anew (FilmJoint.set_viscosity)."""
+        self.film.set_viscosity(viscosity)
+
+    def forces(self, ecc, ecc_rate, omega_rel, t, jacobian=False):  # noqa: D102
+        f = self.film.forces(ecc, ecc_rate, omega_rel, t, jacobian)
+        n = self.films
+        jac = None if f.jacobian is None else n * np.asarray(f.jacobian, dtype=float)
+        return JointForces(
+            n * np.asarray(f.force, dtype=float), n * f.journal_torque, n * f.bushing_torque, jac
+        )
+
+    def outputs(self, ecc, ecc_rate, omega_rel, t, forces) -> dict[str, float]:
+        """The film's variables (FilmJoint.OUTPUTS), the ``SUMMED`` ones over the films."""
+        out = self.film.outputs(ecc, ecc_rate, omega_rel, t, None)
+        return {name: self.films * v if name in self.SUMMED else v for name, v in out.items()}
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -630,6 +675,7 @@ def _film_model(
     bushing,
     surface=None,
     joint="small_end",
+    viscosity=None,
 ):
     """The finite-element film (solver.film.model.Film) of a journal of ``radius`` in a bearing of
     ``width`` and radial ``clearance`` [m]: the oil of ``[oil]`` (viscosity, cavitation law and pressure,
@@ -637,17 +683,19 @@ def _film_model(
     keyword arguments of solver.film.types.Bearing), the roughness and contact of ``[surface]`` (or of
     ``surface``, a solver.film.surface.Surface), the mesh and transport of ``[solver]``, ``omega_ref`` the
     crank speed, and ``bushing`` (None: rigid); ``joint``: the case section that chose the bushing, named
-    by the film's one-line errors."""
+    by the film's one-line errors; ``viscosity`` [Pa s]: the film's oil viscosity instead of ``[oil]``'s
+    (the piezoviscous law's reference too)."""
     from solver.film.spec import FilmSpec
     from solver.film.types import Bearing
     from solver.film.viscosity import viscosity_law
 
     oil, solver = case.oil, case.solver
+    viscosity = oil.viscosity if viscosity is None else viscosity
     bearing = Bearing(
         radius=radius,
         width=width,
         clearance=clearance,
-        viscosity=oil.viscosity,
+        viscosity=viscosity,
         cavitation_pressure=oil.cavitation_pressure,
         inlet="max-gap" if oil.inlet == "max-gap" else "none",
         **supply,
@@ -662,7 +710,7 @@ def _film_model(
         contact=surface.contact(),
         slip_regularisation=solver.slip_regularisation,
         bushing=bushing,
-        piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, oil.viscosity),
+        piezoviscosity=viscosity_law(oil.piezoviscosity, oil.pressure_viscosity, viscosity),
         cavitation=oil.cavitation,
         transport=solver.film_fraction_transport,
         cavitated_shear=oil.cavitated_shear,
@@ -828,19 +876,50 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
     )
 
 
-def pin_boss_joint_from_case(case: Case) -> ClearanceJoint | None:
-    """The floating pin's film in the piston bosses (``pin_boss``): ``None`` for a fixed pin, else Ocvirk's
-    short bearing of the pin in the bosses (``pin_boss.films``: two films of half the total width side by
-    side, or one of the total width), in the oil of ``[oil]`` times ``pin_boss.viscosity_ratio``."""
+def pin_boss_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoint | None:
+    """The floating pin's film in the piston bosses (``pin_boss``): ``None`` for a fixed pin, else the pin
+    (journal) in the bosses (bushing: the piston, which does not turn) in the oil of ``[oil]`` times
+    ``pin_boss.viscosity_ratio``: Ocvirk's short bearing (``short-bearing``, smooth; ``pin_boss.films``:
+    two films of half the total width side by side, or one of the total width), or the finite-element film
+    (``mixed-fem``: rigid bosses, the roughness and asperity contact of ``[pin_boss_surface]``, the
+    Reynolds cavitation and the inlet max-gap or none of ``[oil]``, no supply, the mesh of ``[solver]``,
+    built on ``comm`` with ``omega_ref`` the crank speed of ``engine``; with ``films = 2`` one film of half
+    the total width counted twice, an :class:`EqualFilmsJoint`; with ``films = 1`` a :class:`FilmJoint` of
+    the total width)."""
     if case.small_end.pin != "floating":
         return None
     pb = case.pin_boss
+    viscosity = case.oil.viscosity * pb.viscosity_ratio
     if pb.joint == "short-bearing":
         return ShortBearingJoint(
             radius=pb.radius,
             width=pb.width / pb.films,
             clearance=pb.clearance,
-            viscosity=case.oil.viscosity * pb.viscosity_ratio,
+            viscosity=viscosity,
             films=pb.films,
         )
-    raise InputError(f"pin_boss.joint = {pb.joint!r} is out of range (allowed: 'short-bearing')")
+    if pb.joint == "mixed-fem":  # (oil.cavitation = "reynolds": solver.case)
+        if engine is None:
+            from solver.dynamics.engine import engine_from_case
+
+            engine = engine_from_case(case)
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_SELF
+        model = _film_model(
+            case,
+            engine,
+            comm,
+            radius=pb.radius,
+            width=pb.width / pb.films,
+            clearance=pb.clearance,
+            supply={},
+            bushing=None,
+            surface=surface_from_case(case.pin_boss_surface),
+            joint="pin_boss",
+            viscosity=viscosity,
+        )
+        film = FilmJoint(model)
+        return film if pb.films == 1 else EqualFilmsJoint(film, pb.films)
+    raise InputError(f"pin_boss.joint = {pb.joint!r} is out of range (allowed: 'short-bearing', 'mixed-fem')")

@@ -46,8 +46,8 @@ class FilmSpec:
             as the Reynolds film; the behaviour before 2026-11-27). No effect on a Reynolds film.
         quasi_static: solved without time (the bearing command, equilibria): no history is committed,
             so the max-gap inlet is allowed with a history (solver.film_rules).
-        joint: the engine's joint whose case section chose the bushing ("small_end", "big_end"): the
-            section its one-line errors name.
+        joint: the engine's joint whose case section chose the bushing ("small_end", "big_end",
+            "pin_boss"): the section its one-line errors name.
     """
 
     bearing: Bearing

@@ -338,8 +338,12 @@ class CycleMap:
         }
         plain_q = self._period_q(end)
         joints = self.run.em.clearance_joints
-        # a finite-element film (small end, big end) has its own largest eccentricity ratio
-        films = {"small_end": self.run.model, "big_end": getattr(self.run, "big_model", None)}
+        # a finite-element film (small end, big end, bosses) has its own largest eccentricity ratio
+        films = {
+            "small_end": self.run.model,
+            "big_end": getattr(self.run, "big_model", None),
+            "pin_boss": getattr(self.run, "boss_model", None),
+        }
         limits = {
             name: c * (films[name].max_eccentricity_ratio if films.get(name) is not None else 1.0)
             for name, c in self.run.clearances.items()

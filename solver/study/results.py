@@ -184,6 +184,11 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "pin_boss_h_min_angle": ("degree", "pin bosses: piston-frame angle of the thinnest film, as h_min_angle"),
     "pin_boss_p_max": ("Pa", "pin bosses: peak film pressure"),
     "pin_boss_F_hydro": ("N", "pin bosses: film (hydrodynamic) force magnitude"),
+    "pin_boss_F_asperity": (
+        "N",
+        "pin bosses: asperity contact force magnitude (pin_boss.joint = mixed-fem; 0: the smooth short "
+        "bearing)",
+    ),
     "pin_boss_friction_torque": ("N m", "pin bosses: friction torque on the pin about its centre"),
     "pin_boss_friction_power": (
         "W",

@@ -5,10 +5,11 @@ of solver.joint (``mixed-fem``: the finite-element mixed-lubrication film; ``sho
 an ideal revolute (``ideal``), the big end as an ideal revolute or a clearance joint (``big_end.joint``:
 short bearing, the finite-element film of the crankpin in the rod's big eye, or dry contact), and the
 piston pin fixed in the piston or floating (``small_end.pin``: a body of its own, turning in the small
-end's film and in the bosses' short-bearing film, ``[pin_boss]``); all the clearance joints' forces (each
-finite-element film solved) enter every stage of one integration. The equations of motion are
-integrated with the L-stable ESDIRK32 method (solver.dynamics.integrate), whose Newton iterations use the
-joint's exact Jacobian, so that the step is set by accuracy and not by the film's stiffness (DESIGN 3.8).
+end's film and in the bosses' film, ``[pin_boss]``: short bearing or finite-element film); all the
+clearance joints' forces (each finite-element film solved) enter every stage of one integration. The
+equations of motion are integrated with the L-stable ESDIRK32 method (solver.dynamics.integrate), whose
+Newton iterations use the joint's exact Jacobian, so that the step is set by accuracy and not by the
+film's stiffness (DESIGN 3.8).
 
 The run starts from the ideal-joint configuration at 0 deg with the pin centred in its bushing and
 integrates whole 720 deg cycles until periodic; the last cycle is reported. The study by concern:
@@ -83,7 +84,10 @@ class Run:
         # the big end's film carries a history (JFO film fraction, Winkler shell): committed as the small
         # end's (solver.study.cycles), kept in the checkpoint, a part of the cycle map's state
         self.big_has_history = self.big_model is not None and self.big_model.has_history
-        self.boss_joint = pin_boss_joint_from_case(case)  # None: the pin fixed in the piston
+        # None: the pin fixed in the piston; a finite-element boss film (pin_boss.joint = "mixed-fem") has its
+        # film as ``model`` (rigid, Reynolds cavitation: no history to commit)
+        self.boss_joint = pin_boss_joint_from_case(case, self.engine, comm)
+        self.boss_model = getattr(self.boss_joint, "model", None)
         pin = None
         if self.boss_joint is not None:
             pin = FloatingPin(case.small_end.pin_mass, case.small_end.pin_inertia, self.boss_joint)
@@ -120,8 +124,9 @@ class Run:
 
     @property
     def film_models(self) -> list:
-        """The finite-element films of the run (the small end's, then the big end's), for their counters."""
-        return [model for model in (self.model, self.big_model) if model is not None]
+        """The finite-element films of the run (the small end's, the big end's, then the bosses'), for their
+        counters."""
+        return [model for model in (self.model, self.big_model, self.boss_model) if model is not None]
 
     def integrate_cycle(self, cycle: int, t0: float, q0, qd0, progress=None):
         """One 720 deg cycle from (t0, q0, qd0): (CycleOutput, end state); solver.study.cycles."""

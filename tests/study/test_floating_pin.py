@@ -289,7 +289,7 @@ def test_stated_fixed_pin_gives_the_same_answers(tmp_path):
         ('[small_end]\npin = "floating"\npin_mass_g = 450\n', "small_end.pin_mass_g"),
         ("[small_end]\npin_inertia_kg_mm2 = -1\n", "small_end.pin_inertia_kg_mm2"),
         ('[small_end]\npin = "floating"\n[pin_boss]\njoint = "ideal"\n', "pin_boss.joint"),
-        ('[pin_boss]\njoint = "mixed-fem"\n', "pin_boss.joint"),
+        ('[pin_boss]\njoint = "dry"\n', "pin_boss.joint"),
         ("[pin_boss]\nwidth_mm = -1\n", "pin_boss.width_mm"),
         ("[pin_boss]\nfilms = 3\n", "pin_boss.films"),
         ("[pin_boss]\nclearance_um = 25000\n", "pin_boss.clearance_um"),
