@@ -29,8 +29,9 @@ from solver.dynamics.engine import build_mechanism, engine_from_case
 from solver.dynamics.joint import BIG_END_SHANK_ANGLE_DEG, DryContactJoint, big_eye_bushing
 from solver.film.bushings import FEEye
 from solver.study.simulation import run_case
+from tests.conftest import energy_balance
 from tests.study.test_big_end import make_case
-from tests.study.test_big_end_history import _audit, _case
+from tests.study.test_big_end_history import _case
 
 FE = 'joint = "mixed-fem"\nelastic = "fe"\n'
 
@@ -120,7 +121,7 @@ def test_a_cycle_with_the_fe_big_end_closes_its_energy(tmp_path, monkeypatch):
         ds = ds.load()
     assert ds.attrs["big_end.elastic"] == "fe"
     assert any((tmp_path / "cache" / "tribo-solver" / "compliance").glob("*.npz"))
-    audit = _audit(ds)
+    audit = energy_balance(ds)[0]
     w, p = ds.big_end_deformation_max.values, ds.big_end_p_max.values
     surface, be = load_case(case_dir).big_end_surface, load_case(case_dir).big_end
     E, nu, t = surface.E_bushing, surface.nu_bushing, be.bushing_thickness

@@ -40,8 +40,9 @@ from solver.dynamics.joint import (
 )
 from solver.film.solvers import CoupledFilm
 from solver.study.simulation import run_case
+from tests.conftest import energy_balance
 from tests.study.test_big_end import make_case
-from tests.study.test_big_end_history import _audit, _case
+from tests.study.test_big_end_history import _case
 
 GRID = "compliance_grid_theta = 36\ncompliance_grid_z = 3\ncompliance_modes = 24\n"
 FE = 'joint = "mixed-fem"\nelastic = "fe"\n' + GRID
@@ -216,7 +217,7 @@ def test_a_cycle_with_the_fe_big_end_and_the_hole_closes_its_energy(tmp_path, mo
     with xr.open_dataset(summary.results) as ds:
         ds = ds.load()
     assert ds.attrs["big_end.elastic"] == "fe" and ds.attrs["big_end.supply"] == "hole"
-    audit = _audit(ds)
+    audit = energy_balance(ds)[0]
     print(f"audit {audit:.3g}; deformation up to {float(ds.big_end_deformation_max.max()) * 1e6:.3g} um")
     assert abs(audit) < 0.01
     assert np.max(ds.big_end_supply_flow.values) > 0

@@ -22,7 +22,7 @@ import xarray as xr
 from scipy.integrate import simpson
 
 from solver.study.simulation import run_case
-from tests.conftest import interrupt_and_resume
+from tests.conftest import energy_balance, interrupt_and_resume
 from tests.study.test_big_end import make_case
 
 #: coarse film (0.2 R), 5 deg outputs, the small end ideal: the big end's film alone
@@ -43,15 +43,6 @@ def _case(directory, big_end: str, cycles: int, jfo: bool = True, small_end: str
         assert 'cavitation = "jfo"' in text and "cavitation_pressure_bar = -0.9" in text
     toml.write_text(text)
     return case
-
-
-def _audit(ds) -> float:
-    """(input work - change of mechanical energy - dissipated + drift) / dissipated, of a cycle."""
-    change = float(
-        ds.kinetic_energy[-1] + ds.potential_energy[-1] - ds.kinetic_energy[0] - ds.potential_energy[0]
-    )
-    dissipated = float(ds.dissipated_energy[-1])
-    return (float(ds.input_work[-1]) - change - dissipated + float(ds.drift_work[-1])) / dissipated
 
 
 def _oil_closure(ds) -> float:
@@ -85,7 +76,7 @@ def test_the_jfo_big_end_keeps_its_oil_and_its_energy(jfo_big_end):
     assert int(ds.attrs["cycles"]) == 2 and ds.crank_angle.values[-1] == 720
     assert np.all(ds.big_end_supply_flow.values == 0.0)  # no supply: the edges alone
     closure = _oil_closure(ds)
-    audit = _audit(ds)
+    audit = energy_balance(ds)[0]
     cavitated = ds.big_end_cavitated_area_ratio.values
     print(
         f"oil closure {closure:.3g}, audit {audit:.3g}, cavitated {cavitated.min():.3g}-{cavitated.max():.3g}"
@@ -121,7 +112,7 @@ def test_the_jfo_big_end_with_the_crankpins_hole_keeps_its_oil(tmp_path):
     summary = run_case(case, MPI.COMM_SELF)
     with xr.open_dataset(summary.results) as ds:
         ds = ds.load()
-    closure, audit = _oil_closure(ds), _audit(ds)
+    closure, audit = _oil_closure(ds), energy_balance(ds)[0]
     print(f"oil closure {closure:.3g}, audit {audit:.3g}")
     assert np.max(ds.big_end_supply_flow.values) > 0
     assert abs(closure) < 0.03
@@ -146,7 +137,7 @@ def test_the_winkler_big_end_follows_the_winkler_law_and_closes_its_energy(tmp_p
     print(f"deformation max {np.max(w) * 1e6:.3g} um; free of contact at {free.mean():.2f} of the outputs")
     assert free.mean() > 0.5 and np.max(w) > 0.1e-6
     np.testing.assert_allclose(w[free], k * ds.big_end_p_max.values[free], rtol=1e-6)
-    audit = _audit(ds)
+    audit = energy_balance(ds)[0]
     print(f"audit {audit:.3g}")
     assert abs(audit) < 0.01
 
@@ -170,7 +161,7 @@ def test_both_jfo_films_with_a_winkler_big_end_keep_their_oil(tmp_path):
     t, side = ds.time.values, ds.side_flow.values
     volume, supply = ds.oil_volume.values, ds.supply_flow.values
     small = (simpson(supply - side, x=t) - (volume[-1] - volume[0])) / simpson(np.abs(side), x=t)
-    big, audit = _oil_closure(ds), _audit(ds)
+    big, audit = _oil_closure(ds), energy_balance(ds)[0]
     print(f"oil closure: small end {small:.3g}, big end {big:.3g}; audit {audit:.3g}")
     assert abs(small) < 0.03 and abs(big) < 0.03
     assert abs(audit) < 0.01
