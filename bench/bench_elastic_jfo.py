@@ -2,7 +2,7 @@
 
     taskset -c 1 .venv/bin/python3 bench/bench_elastic_jfo.py [--cycles N] [--rounds K] [--code DIR ...]
 
-Runs ``cases/reference-2000rpm-ehd-jfo`` (FE eye, 72 modes, Barus oil, JFO) and
+Runs ``cases/reference-2000rpm-ehd-jfo`` (FE eye, its modes as the case chooses them, Barus oil, JFO) and
 ``cases/reference-2000rpm-jfo`` with the elastic case's film mesh and integrator tolerance (its
 ``mesh_size`` and ``rtol`` keys; the other keys as shipped), each for ``--cycles`` integrated cycles from
 its ideal-joint start, through the command line only (``python3 -m solver run CASE --json``), so the
