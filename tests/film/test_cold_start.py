@@ -39,7 +39,7 @@ def _film(piezoviscosity: str):
         case,
         oil=dataclasses.replace(case.oil, piezoviscosity=piezoviscosity),
         # the uniform 0.067 R film and the 72 modes of the run that showed it (the case is graded toward
-        # its edges and keeps 144 modes since)
+        # its edges and chooses its modes by a truncation tolerance since: 183)
         solver=dataclasses.replace(case.solver, mesh_size=0.067, mesh_edge_size=None),
         small_end=dataclasses.replace(case.small_end, compliance_modes=72),
     )
