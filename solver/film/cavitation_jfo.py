@@ -54,6 +54,7 @@ from ufl.algorithms import expand_derivatives
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import ReducedShell, configured_snes
 from solver.film.coupled_lu import DampedLU, SchurLU
+from solver.film.ehd import ModalBorder, as_array
 from solver.film.jfo import JFOSolution, semismooth_reason
 from solver.film.jfo_midpoint import MidpointJFO
 from solver.film.transport import (
@@ -251,9 +252,10 @@ class JFORows:
             M.data = self._border @ local.ravel()
             return newton.layered_blocks(J_uu, M, (~self.is_bc).astype(float), slope)
         if newton.dense:
-            M = self._M
-            M.data = self._border @ local.ravel()
-            J_uq = (~self.is_bc)[:, None] * (M @ newton.Phi)
+            pattern = self._M  # (a new matrix: SchurLU keeps the border of its factorisation)
+            values = self._border @ local.ravel()
+            M = scipy.sparse.csr_matrix((values, pattern.indices, pattern.indptr), pattern.shape)
+            J_uq = ModalBorder((~self.is_bc).astype(float), M, newton.Phi)
         else:
             rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
             dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, len(op.cells)))
@@ -265,7 +267,7 @@ class JFORows:
         """The coupled Jacobian at the cached state (module docstring)."""
         self.blocks = J_uu, J_uq, J_qu, J_qq = self.jacobian_blocks()
         if self.newton.dense:
-            J_uq, J_qu, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_uq, J_qu, J_qq))
+            J_uq, J_qu, J_qq = (scipy.sparse.csr_matrix(as_array(M)) for M in (J_uq, J_qu, J_qq))
         return scipy.sparse.bmat([[J_uu, J_uq], [J_qu, J_qq]], format=format)
 
     # -- solve -------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ import scipy.linalg
 import scipy.linalg.lapack
 
 from solver.errors import FilmNotConverged
-from solver.film.ehd import LayeredBlocks
+from solver.film.ehd import LayeredBlocks, ModalBorder, ScaledBorder, as_array
 
 _getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", (np.zeros(1),))
 
@@ -113,11 +113,7 @@ class SchurLU:
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
         self._factor_film_block()
-        self.B = B.copy()
-        self.B[active] = 0.0
-        self.C = C.copy()
-        self.C[:, active] = 0.0
-        self.D = D
+        self.B, self.C, self.D = _without_rows(B, active), _without_columns(C, active), D
         self._exact = False  # whether self.S is this factorisation's Schur complement
         if (
             self.S is None
@@ -158,7 +154,7 @@ class SchurLU:
         if m == 0:  # no borders (the layer basis without modes and contact): nothing to form
             self.S, self._exact = (np.zeros((0, 0)), np.zeros(0, np.int32)), True
             return
-        rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(self.B), comm=self.film.comm)
+        rhs = PETSc.Mat().createDense((n, m), array=np.asfortranarray(as_array(self.B)), comm=self.film.comm)
         X = PETSc.Mat().createDense((n, m), comm=self.film.comm)
         X.setUp()
         try:  # (a factorisation that failed, MUMPS's at a far iterate, refuses to solve)
@@ -333,6 +329,28 @@ class SchurLU:
         for obj in (self.ksp, self.K, self.b, self.x, self._bP, self._xP, self.everything):
             if obj is not None:
                 obj.destroy()
+
+
+def _without_rows(B, rows: np.ndarray):
+    """The border dR_u/dq with ``rows`` (the active set's) zeroed; itself when there are none."""
+    if not len(rows):
+        return B
+    if isinstance(B, ModalBorder):
+        return B.without_rows(rows)
+    B = B.copy()
+    B[rows] = 0.0
+    return B
+
+
+def _without_columns(C, columns: np.ndarray):
+    """The border dR_q/du with ``columns`` (the active set's) zeroed; itself when there are none."""
+    if not len(columns):
+        return C
+    if isinstance(C, ScaledBorder):
+        return C.without_columns(columns)
+    C = C.copy()
+    C[:, columns] = 0.0
+    return C
 
 
 class DampedLU:

@@ -26,6 +26,7 @@ import scipy.sparse
 from solver.errors import FilmNotConverged
 from solver.film.cavitation import DEFAULT_OPTIONS, FixedPatternLU, ReducedShell, configured_snes
 from solver.film.coupled_lu import DampedLU, SchurLU
+from solver.film.ehd import ModalBorder, as_array
 
 #: PETSc options of the coupled VI over the rigid film's (solver.film.cavitation.DEFAULT_OPTIONS):
 #: the reduced-space method, as the rigid film, from a start near the solution (a warm start: 3
@@ -160,7 +161,7 @@ class ReynoldsRows:
             if layered:
                 slope = np.ones(n) if newton.slope is None else newton.slope
                 return newton.layered_blocks(self._A, M, newton.interior, slope)
-            J_Pq = newton.interior[:, None] * (M @ newton.Phi)
+            J_Pq = ModalBorder(newton.interior, M, newton.Phi)
         else:
             rows, cols = op.dofs.ravel(), np.repeat(op.cells, 3)
             dH = scipy.sparse.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n_cells))
@@ -173,7 +174,7 @@ class ReynoldsRows:
         """The coupled Jacobian at the cached state."""
         self.blocks = A, J_Pq, J_qP, J_qq = self.jacobian_blocks()
         if self.newton.dense:
-            J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(M) for M in (J_Pq, J_qP, J_qq))
+            J_Pq, J_qP, J_qq = (scipy.sparse.csr_matrix(as_array(M)) for M in (J_Pq, J_qP, J_qq))
         return scipy.sparse.bmat([[A, J_Pq], [J_qP, J_qq]], format=format)
 
     def _blocks_only(self, snes, x, J, Pmat) -> None:

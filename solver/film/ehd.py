@@ -317,7 +317,7 @@ class CoupledNewton:
             J_qq = np.identity(self.m) - self.gPhiT_cells[:, touching] @ (
                 k[touching, 5, None] * self.average_Phi_dense[touching]
             )
-            J_qu = self.J_qP_dense if slope is None else self.J_qP_dense * slope[None, :]
+            J_qu = self.J_qP_dense if slope is None else ScaledBorder(self.J_qP_dense, slope)
         else:
             contact = self.to_nodes @ scipy.sparse.diags(k[:, 5]) @ self.average_Phi
             J_qq = scipy.sparse.identity(self.m) - self.gPhiT @ contact
@@ -430,6 +430,62 @@ class LayeredBlocks:
     def __init__(self, A, L, d, kept, B_modes, C_modes, D):
         self.A, self.L, self.d, self.kept = A, L, d, kept
         self.B_modes, self.C_modes, self.D = B_modes, C_modes, D
+
+
+class ModalBorder:
+    """dR_u/dq = diag(``rows``) M Phi (n x m) of a film with a few modes, kept as its factors: M (n x n, the
+    film's nearest-neighbour pattern: solver.film.ehd.border_map) and the shapes Phi (n x m, dense). A
+    product with a vector is two products (M sparse, Phi dense) instead of the n x m product formed at
+    every Jacobian (~1.2 ms with 183 modes at 1405 dofs); solver.film.coupled_lu.SchurLU forms it
+    (``toarray``) only with a Schur complement, about one factorisation in six."""
+
+    __slots__ = ("rows", "M", "Phi", "shape")
+
+    def __init__(self, rows: np.ndarray, M: scipy.sparse.csr_matrix, Phi: np.ndarray):
+        self.rows, self.M, self.Phi = rows, M, Phi
+        self.shape = Phi.shape
+
+    def __matmul__(self, v: np.ndarray) -> np.ndarray:
+        product = self.M @ (self.Phi @ v)
+        return self.rows * product if product.ndim == 1 else self.rows[:, None] * product
+
+    def toarray(self) -> np.ndarray:
+        return self.rows[:, None] * (self.M @ self.Phi)
+
+    def without_rows(self, rows: np.ndarray) -> ModalBorder:
+        """The border with ``rows`` zeroed (the active set's)."""
+        kept = self.rows.copy()
+        kept[rows] = 0.0
+        return ModalBorder(kept, self.M, self.Phi)
+
+
+class ScaledBorder:
+    """dR_q/du = J diag(``scale``) (m x n) of a film with a few modes, kept as its factors: J = dR_q/dP
+    (fixed, dense) and the true pressure's slope dp/du at each node (piezoviscosity), so that no m x n
+    product is formed at every Jacobian."""
+
+    __slots__ = ("J", "scale", "shape")
+
+    def __init__(self, J: np.ndarray, scale: np.ndarray):
+        self.J, self.scale = J, scale
+        self.shape = J.shape
+
+    def __matmul__(self, v: np.ndarray) -> np.ndarray:
+        return self.J @ (self.scale * v if v.ndim == 1 else self.scale[:, None] * v)
+
+    def toarray(self) -> np.ndarray:
+        return self.J * self.scale[None, :]
+
+    def without_columns(self, columns: np.ndarray) -> ScaledBorder:
+        """The border with ``columns`` zeroed (the active set's)."""
+        scale = self.scale.copy()
+        scale[columns] = 0.0
+        return ScaledBorder(self.J, scale)
+
+
+def as_array(block) -> np.ndarray:
+    """A border as a dense array (``ModalBorder``, ``ScaledBorder`` or already an array)."""
+    return block.toarray() if isinstance(block, (ModalBorder, ScaledBorder)) else block
 
 
 def _is_identity(block: scipy.sparse.csr_matrix) -> bool:
