@@ -9,9 +9,12 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+import scipy.sparse
 
 from solver.film.bearing import Bearing, FilmModel, Kinematics
 from solver.film.bushings import ModalCompliance
+from solver.film.coupled_lu import _without_columns, _without_rows
+from solver.film.ehd import ModalBorder, ScaledBorder, as_array
 from solver.film.surface import Surface
 
 pytestmark = pytest.mark.serial
@@ -109,3 +112,33 @@ def test_jacobian_at_the_solution_matches_finite_differences(coarse_eye):
     for row in range(4):  # forces and torques have different units: row by row
         scale = np.abs(J_fd[row]).max()
         assert np.abs(J[row] - J_fd[row]).max() <= 1e-5 * scale, (row, J[row], J_fd[row])
+
+
+def test_borders_kept_as_factors_equal_their_products():
+    """The borders SchurLU reads as factors (solver.film.ehd.ModalBorder: diag(rows) M Phi; ScaledBorder:
+    J diag(scale)) against their dense products formed directly, on a vector and a block of vectors, with
+    the active set's rows (columns) zeroed as SchurLU zeroes them: equal to 1e-13 of the largest entry (a
+    different order of the same sums)."""
+    rng = np.random.default_rng(7)
+    n, m = 60, 9
+    M = scipy.sparse.random(n, n, density=0.1, format="csr", random_state=3) + scipy.sparse.identity(n)
+    Phi, J = rng.standard_normal((n, m)), rng.standard_normal((m, n))
+    rows, scale = (rng.random(n) > 0.1).astype(float), rng.random(n)
+    active = np.array([2, 17, 40])
+    B_dense = rows[:, None] * (M.toarray() @ Phi)
+    B_dense[active] = 0.0
+    C_dense = J * scale[None, :]
+    C_dense[:, active] = 0.0
+    B = _without_rows(ModalBorder(rows, M, Phi), active)
+    C = _without_columns(ScaledBorder(J, scale), active)
+    v, V, y, Y = (
+        rng.standard_normal(m),
+        rng.standard_normal((m, 4)),
+        rng.standard_normal(n),
+        rng.standard_normal((n, 4)),
+    )
+    for lazy, dense, x in ((B, B_dense, v), (B, B_dense, V), (C, C_dense, y), (C, C_dense, Y)):
+        assert np.abs(lazy @ x - dense @ x).max() <= 1e-13 * np.abs(dense @ x).max()
+    for lazy, dense in ((B, B_dense), (C, C_dense)):
+        assert np.abs(as_array(lazy) - dense).max() <= 1e-13 * np.abs(dense).max()
+    assert _without_rows(B, np.array([], int)) is B  # nothing active: the border itself, no copy
