@@ -34,9 +34,11 @@ class SchurLU:
 
     The film block is an M-matrix (its rows become small where the gap closes, but stay diagonally
     dominant), so PETSc's LU without pivoting serves it; the dense borders, which made the whole
-    matrix need MUMPS's pivoting, only enter S. Forming S costs m back-substitutions (A^-1 B) and a
-    dense LU; S changes little from one Newton iteration, and one film solve, to the next, so it is
-    formed only when needed: the Schur system of a new factorisation is solved by GMRES preconditioned
+    matrix need MUMPS's pivoting, only enter S. The borders may come as their factors
+    (solver.film.ehd.ModalBorder, ScaledBorder: products with vectors without the n x m arrays); B is
+    formed only with a complement. Forming S costs m back-substitutions (A^-1 B) and a dense LU; S
+    changes little from one Newton iteration, and one film solve, to the next, so it is formed only
+    when needed: the Schur system of a new factorisation is solved by GMRES preconditioned
     with the last S formed (each iteration one back-substitution, ~5 on the engine cycle, to 1e-12),
     and S is formed anew when that takes more than MAX_KRYLOV iterations (about one factorisation in
     six on the engine cycle). One Newton step then costs an LU of the film matrix (~0.4 ms at 1620
@@ -44,7 +46,7 @@ class SchurLU:
     Interface of FixedPatternLU (``factor``, ``solve_full``, the PCShell methods).
 
     The film is a cavitation block of the coupled Newton with the Jacobian's blocks at its last state
-    (``blocks``: the film block a CSR matrix in the operator's layout, the borders dense):
+    (``blocks``: the film block a CSR matrix in the operator's layout, the borders dense or as factors):
     solver.film.coupled_reynolds.ReynoldsRows, whose VI gives the inactive set of each Newton step
     (``bounded``), or solver.film.cavitation_jfo.JFORows, whose semismooth Newton has no bounds (every
     unknown in every system: ``bounded=False``).
