@@ -497,7 +497,7 @@ FIELDS: tuple[FieldSpec, ...] = (
         "compliance_modes",
         "compliance_modes",
         int,
-        72,
+        0,
         minimum=0,
         maximum=5000,
         doc="fe: modes kept, at most the grid's nodes (compliance_grid_theta x compliance_grid_z); 0: the "
@@ -528,7 +528,7 @@ FIELDS: tuple[FieldSpec, ...] = (
         "small_end",
         "compliance_tolerance",
         "compliance_tolerance",
-        0.01,
+        0.001,
         1.0,
         0.0,
         1.0,

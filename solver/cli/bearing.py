@@ -464,8 +464,8 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--compliance-modes",
         type=int,
-        default=72,
-        help="fe: modes of the compliance kept (default 72; 0: the fewest within --compliance-tolerance)",
+        default=0,
+        help="fe: modes of the compliance kept (default 0: the fewest within --compliance-tolerance)",
     )
     g.add_argument(
         "--compliance-grid",
@@ -478,8 +478,8 @@ def add_elastic_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--compliance-tolerance",
         type=_number("--compliance-tolerance", 0, 1, allowed="(0, 1)"),
-        default=0.01,
-        help="fe: the truncation error under the reference loads the modes are chosen for (default 0.01)",
+        default=0.001,
+        help="fe: the truncation error under the reference loads the modes are chosen for (default 0.001)",
     )
     g.add_argument(
         "--piezoviscosity",
