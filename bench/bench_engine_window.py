@@ -62,9 +62,10 @@ def main() -> None:
     after = dataclasses.asdict(model.stats)
     stats = {key: after[key] - value for key, value in dataclasses.asdict(before).items()}
     h_min = min(h for _, h in rows)
+    solves = stats["solves"]
     print(
-        f"{path.name} to {rows[-1][0]:g} deg: cpu {cpu:.1f} s; {stats['solves']} film solves, "
-        f"{stats['vi_iterations'] / stats['solves']:.2f} iterations, {stats['solve_seconds'] / stats['solves'] * 1e3:.2f} "
+        f"{path.name} to {rows[-1][0]:g} deg: cpu {cpu:.1f} s; {solves} film solves, "
+        f"{stats['vi_iterations'] / solves:.2f} iterations, {stats['solve_seconds'] / solves * 1e3:.2f} "
         f"ms per solve, {stats['jacobians']} Jacobians; min h_min {h_min:.10e} m, "
         f"h_min sum {np.sum([h for _, h in rows]):.12e}"
     )
