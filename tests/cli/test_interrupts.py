@@ -43,8 +43,14 @@ def start(command: list[str]) -> subprocess.Popen:
 
 
 def wait_for(paths: list[Path], process: subprocess.Popen, timeout: float = 400) -> None:
+    """Until each of ``paths`` has appeared, the process still running. Not necessarily all at once: in a
+    batch on a loaded core one case can finish (its checkpoint removed) before the other writes its first."""
     deadline = time.monotonic() + timeout
-    while not all(p.exists() for p in paths):
+    seen: set[Path] = set()
+    while True:
+        seen.update(p for p in paths if p.exists())
+        if len(seen) == len(paths):
+            return
         assert process.poll() is None, process.communicate()[1]
         assert time.monotonic() < deadline, "timed out"
         time.sleep(0.1)
@@ -182,8 +188,9 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
     # counts it, and its status is complete
     finished = re.search(r"batch: (\d) of 2 case\(s\) finished, (\d) interrupted", lines[0])
     assert finished and int(finished[1]) + int(finished[2]) == 2 and int(finished[1]) <= 1, lines[0]
-    # where: in a cycle, or between two (writing the checkpoint) when the signal came
-    assert re.search(r"at cycle [123], crank|outside its cycles", lines[0]), lines[0]
+    # where: in a cycle, or between two (writing the checkpoint) when the signal came; rank 0 reports it
+    # for its own case, so not when that one had finished (batch_status.json has the other's)
+    assert int(finished[1]) == 1 or re.search(r"at cycle [123], crank|outside its cycles", lines[0]), lines[0]
     document = json.loads((tmp_path / "batch_status.json").read_text())
     statuses = [r["status"] for r in document["cases"]]
     assert statuses.count("interrupted") == int(finished[2]) and set(statuses) <= {"interrupted", "complete"}
@@ -197,7 +204,9 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
         if status == "interrupted":
             assert "resuming after cycle 1" in (c / "results" / "run.log").read_text()
     document = json.loads((tmp_path / "batch_status.json").read_text())
-    assert [r["status"] for r in document["cases"]] == ["complete", "complete"]
+    # a case that had finished before the signal is not run again: "skipped" (solver.study.batch.PASSED)
+    expected = ["skipped" if status == "complete" else "complete" for status in statuses]
+    assert [r["status"] for r in document["cases"]] == expected
 
 
 def test_ctrl_c_still_reaches_python_after_the_film_mesh():
