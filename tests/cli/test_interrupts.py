@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
+from solver.study.batch import PASSED
 from tests.conftest import ROOT
 from tests.study.test_batch import mpi_env
 
@@ -204,9 +205,10 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
         if status == "interrupted":
             assert "resuming after cycle 1" in (c / "results" / "run.log").read_text()
     document = json.loads((tmp_path / "batch_status.json").read_text())
-    # a case that had finished before the signal is not run again: "skipped" (solver.study.batch.PASSED)
-    expected = ["skipped" if status == "complete" else "complete" for status in statuses]
-    assert [r["status"] for r in document["cases"]] == expected
+    # the interrupted cases complete; one that had finished around the signal is skipped or, when its
+    # results were not yet recorded as complete, run again (either passes: solver.study.batch.PASSED)
+    for record, status in zip(document["cases"], statuses):
+        assert record["status"] == "complete" if status == "interrupted" else record["status"] in PASSED
 
 
 def test_ctrl_c_still_reaches_python_after_the_film_mesh():
