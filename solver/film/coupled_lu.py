@@ -115,7 +115,7 @@ class SchurLU:
         self.K.assemble()
         self.K.zeroRowsColumns(active, diag=1.0)
         self._factor_film_block()
-        self.B, self.C, self.D = _without_rows(B, active), _without_columns(C, active), D
+        self.B, self.C, self.D = _zeroed(B, active, axis=0), _zeroed(C, active, axis=1), D
         self._exact = False  # whether self.S is this factorisation's Schur complement
         if (
             self.S is None
@@ -333,26 +333,16 @@ class SchurLU:
                 obj.destroy()
 
 
-def _without_rows(B, rows: np.ndarray):
-    """The border dR_u/dq with ``rows`` (the active set's) zeroed; itself when there are none."""
-    if not len(rows):
-        return B
-    if isinstance(B, ModalBorder):
-        return B.without_rows(rows)
-    B = B.copy()
-    B[rows] = 0.0
-    return B
-
-
-def _without_columns(C, columns: np.ndarray):
-    """The border dR_q/du with ``columns`` (the active set's) zeroed; itself when there are none."""
-    if not len(columns):
-        return C
-    if isinstance(C, ScaledBorder):
-        return C.without_columns(columns)
-    C = C.copy()
-    C[:, columns] = 0.0
-    return C
+def _zeroed(border, active: np.ndarray, axis: int):
+    """A border with the active set's rows (``axis`` 0: dR_u/dq) or columns (1: dR_q/du) zeroed; the border
+    itself when nothing is active (the JFO film's semismooth Newton)."""
+    if not len(active):
+        return border
+    if isinstance(border, (ModalBorder, ScaledBorder)):
+        return border.zeroed(active)
+    border = border.copy()
+    border[(slice(None),) * axis + (active,)] = 0.0
+    return border
 
 
 class DampedLU:

@@ -452,7 +452,7 @@ class ModalBorder:
     def toarray(self) -> np.ndarray:
         return self.rows[:, None] * (self.M @ self.Phi)
 
-    def without_rows(self, rows: np.ndarray) -> ModalBorder:
+    def zeroed(self, rows: np.ndarray) -> ModalBorder:
         """The border with ``rows`` zeroed (the active set's)."""
         kept = self.rows.copy()
         kept[rows] = 0.0
@@ -476,7 +476,7 @@ class ScaledBorder:
     def toarray(self) -> np.ndarray:
         return self.J * self.scale[None, :]
 
-    def without_columns(self, columns: np.ndarray) -> ScaledBorder:
+    def zeroed(self, columns: np.ndarray) -> ScaledBorder:
         """The border with ``columns`` zeroed (the active set's)."""
         scale = self.scale.copy()
         scale[columns] = 0.0
