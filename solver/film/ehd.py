@@ -70,6 +70,14 @@ log = logging.getLogger(__name__)
 #: many clearances and the iteration diverges; limited, it follows the film into the solution
 MAX_THICKNESS_STEP = 0.2
 MAX_GAP_CLOSURE = 0.7
+#: the C compiler's options for the coupled film's kernel (the block's coefficients and their derivatives
+#: at the midpoints), which is evaluated at every residual, ~3.4 times a film solve (the rigid films
+#: evaluate theirs once a solve): dolfinx's -O2 and the floating-point rules relaxed so that the compiler
+#: may reassociate and share the many subexpressions of the flow factors, the contact and their
+#: derivatives (1.63 -> 0.97 ms at the 2561 cells of cases/reference-2000rpm-ehd-jfo;
+#: docs/benchmarks.md). Not -ffinite-math-only (a far iterate's overflow must stay inf or NaN, which
+#: the Newton tests) nor -march=native (a JIT cache shared by the nodes of a cluster)
+KERNEL_JIT = {"cffi_extra_compile_args": ["-O2", "-g0", "-funsafe-math-optimizations", "-fno-math-errno"]}
 
 
 def step_factor(
@@ -129,7 +137,7 @@ class CoupledNewton:
         # subexpressions (gap, flow factors) once (0.28 ms against 0.41 ms for two at 1514 cells)
         self.columns = len(block.coefficients)
         self.expression = fem.Expression(
-            ufl.as_vector(list(block.coefficients) + list(derivatives)), MIDPOINT
+            ufl.as_vector(list(block.coefficients) + list(derivatives)), MIDPOINT, jit_params=KERNEL_JIT
         )
         Phi, gains = shapes
         Phi = scipy.sparse.csr_matrix(Phi)
