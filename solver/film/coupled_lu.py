@@ -67,9 +67,7 @@ class SchurLU:
         )
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(film.comm)
-        self.ksp.setType("preonly")
-        self.ksp.getPC().setType("lu")
-        self.ksp.getPC().setFactorOrdering(ORDERING)
+        self._use("petsc")  # of the film block's current factorisation: PETSc's own (else MUMPS)
         self.b, self.x = (
             PETSc.Vec().createSeq(film.N, comm=film.comm),
             PETSc.Vec().createSeq(film.N, comm=film.comm),
@@ -85,7 +83,6 @@ class SchurLU:
         self.local: np.ndarray | None = None
         self.limit = None
         self.failed = False
-        self._package = "petsc"  # of the film block's current factorisation
         # LU of the last Schur complement formed (exact for its factorisation, then a preconditioner)
         self.S = None
         self._exact = False
@@ -275,7 +272,8 @@ class SchurLU:
             self.ksp.setUp()
 
     def _use(self, package: str) -> None:
-        """A new LU of the film block by ``package`` (analysis included at the next set-up)."""
+        """A new LU of the film block by ``package`` (analysis included at the next set-up); PETSc's own is
+        ordered by ORDERING, MUMPS orders its own."""
         self.ksp.reset()
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")

@@ -71,10 +71,10 @@ log = logging.getLogger(__name__)
 MAX_THICKNESS_STEP = 0.2
 MAX_GAP_CLOSURE = 0.7
 #: the C compiler's options for the coupled film's kernel (the block's coefficients and their derivatives
-#: at the midpoints), which is evaluated at every residual, ~3.4 times a film solve (the rigid films
-#: evaluate theirs once a solve): dolfinx's -O2 and the floating-point rules relaxed so that the compiler
-#: may reassociate and share the many subexpressions of the flow factors, the contact and their
-#: derivatives (1.63 -> 0.97 ms at the 2561 cells of cases/reference-2000rpm-ehd-jfo;
+#: at the midpoints), which is evaluated at every residual, 2.6 times a film solve in the engine (the
+#: rigid films evaluate theirs once a solve): dolfinx's -O2 and the floating-point rules relaxed so that
+#: the compiler may reassociate and share the many subexpressions of the flow factors, the contact and
+#: their derivatives (1.63 -> 0.97 ms at the 2561 cells of cases/reference-2000rpm-ehd-jfo;
 #: docs/benchmarks.md). Not -ffinite-math-only (a far iterate's overflow must stay inf or NaN, which
 #: the Newton tests) nor -march=native (a JIT cache shared by the nodes of a cluster)
 KERNEL_JIT = {"cffi_extra_compile_args": ["-O2", "-g0", "-funsafe-math-optimizations", "-fno-math-errno"]}
