@@ -1160,11 +1160,14 @@ FIELDS: tuple[FieldSpec, ...] = (
         "periodic_acceleration",
         str,
         "none",
-        choices=("none", "mpe"),
-        doc="the cycles' way to the periodic state: none (each cycle from the last one's end) or mpe (after "
+        choices=("none", "mpe", "film"),
+        doc="the cycles' way to the periodic state: none (each cycle from the last one's end), mpe (after "
         "two cycles the next starts from the minimal polynomial extrapolation of the cycle-end states: "
-        "positions, velocities, film fraction and deformation; then a plain cycle tests periodicity; "
-        "docs/models.md)",
+        "positions, velocities, film fraction and deformation; then a plain cycle tests periodicity) or "
+        "film (after each cycle the small end's film runs alone under that cycle's motion, one solve a "
+        "step, until its film fraction is periodic under it, and the next cycle starts from it: for the "
+        "mass-conserving film, whose oil settles slowly: a mixed-fem small end with oil.cavitation jfo); "
+        "docs/models.md",
     ),
     _f(
         "solver",

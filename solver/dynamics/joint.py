@@ -86,6 +86,9 @@ class FilmJoint(ClearanceJoint):
         self._commits = 0
         self._last_key: tuple | None = None
         self.n_solves = self.n_jacobians = self.n_failures = 0
+        #: a list to record the committed states' kinematics in: (t, (e_x, e_y, de_x/dt, de_y/dt, omega_rel)),
+        #: a commit at the time of the last one replacing it (solver.study.relaxation); None: not recorded
+        self.trace: list[tuple[float, tuple]] | None = None
 
     def set_viscosity(self, viscosity: float) -> None:
         """The oil's viscosity [Pa s] anew: the film keeps its history and warm start
@@ -106,6 +109,10 @@ class FilmJoint(ClearanceJoint):
         state = self._cache[self._last_key][1]
         self.model.commit_history(state, t)
         self._commits += 1
+        if self.trace is not None:
+            if self.trace and self.trace[-1][0] == t:
+                self.trace.pop()
+            self.trace.append((float(t), self._last_key[:5]))
         return state
 
     def result_at(self, ecc, ecc_rate, omega_rel, t: float = 0.0):

@@ -41,6 +41,7 @@ from solver.study.energy import STAGE_COLUMNS, EnergyAudit, input_work
 from solver.study.film_temperature import set_film_temperature
 from solver.study.outputs import StateOutputs
 from solver.study.periodic import STATE_PARTS, CycleMap, EndState
+from solver.study.relaxation import relax
 from solver.study.results import TIMING, nan_reduce
 from solver.study.thermal import ThermalError, cycle_mean
 
@@ -50,6 +51,11 @@ log = logging.getLogger(__name__)
 PREFIX = {"small_end": "", "big_end": "big_end_", "pin_boss": "pin_boss_"}
 
 CHUNK_DEG = 10.0  # crank angle between progress updates
+#: periodic_acceleration = "film": the film alone runs film cycles under the last cycle's motion until its
+#: film fraction changes by less than this at every node over one (a plain cycle's change near the
+#: periodic state of the elastic JFO case: ~1e-3, with the friction moving by ~1 %), at most ALONE_CYCLES
+ALONE_TOLERANCE = 1e-4
+ALONE_CYCLES = 15
 
 
 class SimulationError(RuntimeError):
@@ -221,6 +227,11 @@ def describe_timing(timing: dict[str, float]) -> str:
             if t.get("transport_fallbacks")
             else ""
         )
+        + (
+            f"; the film alone {t['film_alone_solves']:.0f} solves {t['film_alone_s']:.1f} s"
+            if t.get("film_alone_solves")
+            else ""
+        )
     )
 
 
@@ -330,9 +341,12 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         t0, q0, qd0 = run.em.initial_state(0.0)
     # the cycle map's parts (solver.study.periodic): each cycle's change of each, and the extrapolation
     cycle_map = CycleMap(run, case.solver.periodic_acceleration)
+    relaxing = case.solver.periodic_acceleration == "film" and "small_end" in cycle_map.films
     start = EndState(t0, q0, qd0, [])
     changes: dict[str, list[float]] = {name: [math.nan] * first for name in STATE_PARTS}
     extrapolated = [0.0] * first  # 1: the cycle started from an extrapolated state
+    # film cycles of the film alone after each cycle (periodic_acceleration = "film")
+    alone = [math.nan] * first
     bar, report = _progress_bar(case, first) if progress and comm.rank == 0 else (None, None)
 
     cycle = None
@@ -391,12 +405,42 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         )
         return oil.thermal.converged
 
+    def relax_film(cycle_index: int, settled_now: bool):  # the film alone under the cycle's motion
+        if settled_now or cycle_index + 1 >= case.solver.max_cycles:  # (no cycle follows)
+            return None
+        relaxed = relax(
+            run.model,
+            cycle_map.films["small_end"],
+            run.joint.trace,
+            run.model.committed_history(),
+            ALONE_TOLERANCE,
+            ALONE_CYCLES,
+        )
+        for time_s, film_state in relaxed.history:  # (the checkpoint holds it: a resume is the same)
+            run.model.commit_history(film_state, time_s)
+        run.model.start_from(relaxed.history[-1][1])
+        cycle.timing["film_alone_solves"] = relaxed.solves
+        cycle.timing["film_alone_s"] = relaxed.seconds
+        cycle.timing["wall_s"] += relaxed.seconds
+        log.info(
+            "cycle %d: the film alone under the cycle's motion, %d film cycles (%d solves, %.1f s): the film "
+            "fraction's largest change at a node %s",
+            cycle_index + 1,
+            relaxed.cycles,
+            relaxed.solves,
+            relaxed.seconds,
+            ", ".join(f"{c:.3g}" for c in relaxed.changes),
+        )
+        return relaxed
+
     run.position, saved = (first, 0.0), first  # (cycle index, crank angle) reached; cycles checkpointed
     try:
         # log lines go above the progress bar instead of through it
         with _logs_above_the_bar() if bar is not None else nullcontext():
             for index in range(first, case.solver.max_cycles):
                 at_film_temperature()
+                if relaxing:  # the kinematics of the film's committed states (solver.study.relaxation)
+                    run.joint.trace = []
                 cycle, (t0, q0, qd0) = run.integrate_cycle(index, start.t, start.q, start.qd, progress=report)
                 consistent = thermal_step(index, cycle)
                 start = dataclasses.replace(
@@ -428,6 +472,8 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 log.info(
                     "cycle %d: change of the state over the cycle: %s", index + 1, describe_changes(change)
                 )
+                relaxed = relax_film(index, settled_now) if relaxing else None
+                alone.append(relaxed.cycles if relaxed is not None else 0)
                 begin = time.perf_counter()
                 timings.append(cycle.timing)
                 if comm.rank == 0:
@@ -459,6 +505,8 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                 # extrapolated while the orbit is not periodic; then plain (the thermal iteration alone
                 # closes the balance: an extrapolation there only moves the orbit by its noise)
                 start = cycle_map.next_start(end, extrapolate=not settled_now)
+                if relaxed is not None:
+                    start = dataclasses.replace(end, film=relaxed.history)
                 for model, film in ((run.model, start.film), (run.big_model, start.big_end_film)):
                     if start is not end and model is not None and film:
                         for time_s, film_state in film:  # each film's history moved alike
@@ -481,6 +529,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         for name in STATE_PARTS:
             changes[name].append(math.nan)
         extrapolated.append(0.0)
+        alone.append(0)
         thermal_step(len(history) - 1, cycle)
         timings.append(cycle.timing)
     run.timings = timings
@@ -490,6 +539,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
         **{f"{PREFIX[name]}h_min_min": list(values) for name, values in others.items()},
         **{f"state_change_{name}": values for name, values in changes.items()},
         "extrapolated_start": extrapolated,
+        "film_alone_cycles": alone,
     }
     if not settled()[0]:
         log.warning(

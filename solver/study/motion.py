@@ -327,7 +327,7 @@ def drive(
             model.commit_history(model.history_state(), float(t[0]))
             run.accumulate(float(t[0]), result)
         elif history:
-            result = _solve_row(model, motion, i, run, substeps)
+            result = solve_row(model, motion, i, run, substeps)
         else:  # no history: the internal steps only integrate the flows between the rows
             for k in range(1, substeps if i > 0 else 1):
                 s = k / substeps
@@ -353,7 +353,7 @@ def drive(
     return run
 
 
-def _solve_row(model, motion: Motion, i: int, run: MotionRun, substeps: int = 1):
+def solve_row(model, motion: Motion, i: int, run: MotionRun, substeps: int = 1):
     """Row ``i`` reached in ``substeps`` equal internal steps from the last commit (row 0: one step at
     its time), each solved with the history's rate and committed; where a solve fails, the step is
     halved (intermediate states committed) until it succeeds."""

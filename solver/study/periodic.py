@@ -79,7 +79,7 @@ FILM_PREFIX = {"small_end": "", "big_end": "big_end_"}
 #: changes (the closure stayed at 1.5e-5 where the plain secant reached 1e-7)
 TEMPERATURE_SCALE = 0.01
 #: the ``solver.periodic_acceleration`` values
-ACCELERATIONS = ("none", "mpe")
+ACCELERATIONS = ("none", "mpe", "film")
 #: pairs (start, end) the extrapolation combines, the latest last
 PAIRS = 3
 #: the largest |alpha_j| accepted: a mode contracting by lambda a cycle takes 1 / (1 - lambda), 5 at
@@ -300,7 +300,7 @@ class CycleMap:
         ``end`` itself (plain, not ``extrapolate``, or fewer than two pairs), or with acceleration the
         extrapolation of the kept pairs, made admissible."""
         self.extrapolated = False
-        if self.acceleration == "none" or not extrapolate:
+        if self.acceleration != "mpe" or not extrapolate:
             return end
         alpha = self.coefficients()
         if alpha is None:

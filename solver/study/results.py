@@ -240,7 +240,7 @@ FILM_VARIABLES: dict[str, tuple[str, str]] = {
 #: Logged per cycle and stored in the results' attributes as ``timing.<name>`` (one value per computed
 #: cycle, the first cycle first).
 TIMING: dict[str, str] = {
-    "wall_s": "wall time of the cycle (integration, outputs and checkpoint)",
+    "wall_s": "wall time of the cycle (integration, outputs, the film alone and checkpoint)",
     "film_solves": "film solves (each an SNES VI solve, its assembly and functionals; the small end's and "
     "a finite-element big end's together, as the other film counts and seconds)",
     "vi_iterations": "SNES VI (Newton) iterations of all film solves",
@@ -253,6 +253,9 @@ TIMING: dict[str, str] = {
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",
     "io_s": "seconds writing the checkpoint",
+    "film_alone_solves": "film solves of the small end's film run alone under the cycle's motion after it "
+    '(solver.periodic_acceleration = "film"; 0 otherwise)',
+    "film_alone_s": "seconds of those solves",
 }
 
 
@@ -422,7 +425,8 @@ def write_results(
             "(the heat balance's fixed point less the cycle's temperature), "
             "state_change_big_end_film_fraction and state_change_big_end_deformation (the big end's "
             "film alike); extrapolated_start: 1 if the cycle started from "
-            "an extrapolated state (solver.study.periodic)",
+            "an extrapolated state (solver.study.periodic); film_alone_cycles: the film cycles the small "
+            "end's film ran alone under the cycle's motion after it (solver.study.relaxation; 0: none)",
             "timing.description": "; ".join(f"{name}: {text}" for name, text in TIMING.items())
             + "; one value per computed cycle, the first cycle first",
             "Conventions": "CF-1.8 (partially)",

@@ -185,6 +185,14 @@ def run_case(
             'oil.thermal = "effective" is for the small end\'s film alone (allowed: big_end.joint = "ideal"; '
             f"got {case.big_end.joint!r})"
         )
+    if case.solver.periodic_acceleration == "film" and not (
+        joint == "mixed-fem" and case.small_end.pin == "fixed" and case.oil.cavitation == "jfo"
+    ):
+        raise InputError(
+            'solver.periodic_acceleration = "film" runs the small end\'s mass-conserving film alone '
+            '(allowed: joint "mixed-fem", small_end.pin = "fixed" and oil.cavitation = "jfo"; else "none" or '
+            '"mpe")'
+        )
     if case.small_end.pin == "floating" and joint == "ideal":
         raise InputError(
             'small_end.pin = "floating" turns in the small end\'s film (allowed: joint "mixed-fem", '
