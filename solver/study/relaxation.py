@@ -8,9 +8,12 @@ integrator's noise while the film fraction creeps by a contraction of ~0.6 a cyc
 (solver.dynamics.joint.FilmJoint.trace: the accepted steps' and the outputs'); solved again at those
 kinematics and times from the cycle's first committed states, the film alone gives the cycle's film
 states back (the same solves: the film's state depends on the motion and its own history only). Solved
-again one period later, and again, the film runs plain cycles of its own under that motion, one solve
-per committed state instead of the integrator's stages and Newton iterations (~12 solves a step), until
-its film fraction changes by less than ``tolerance`` at every node over a film cycle. The next coupled
+again one period later, and again, the film runs cycles of its own under that motion, one solve per
+committed state instead of the integrator's stages and Newton iterations (~12 solves a step), until
+its film fraction changes by less than ``tolerance`` at every node over a film cycle. Under a fixed
+motion the film creeps as slowly as in the coupled cycles (0.65-0.7 a film cycle), so each film cycle
+after the second starts from the mixing of the last PAIRS film cycles' ends (the cycle map's
+extrapolation, solver.study.periodic, here on the deterministic map of the film alone). The next coupled
 cycle starts from the mechanism's end state and that film, whose history is moved back by the periods
 replayed (the BDF2 rates depend on the times' differences only).
 
