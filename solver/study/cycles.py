@@ -417,9 +417,8 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
             ALONE_TOLERANCE,
             ALONE_CYCLES,
         )
-        for time_s, film_state in relaxed.history:  # (the checkpoint holds it: a resume is the same)
-            run.model.commit_history(film_state, time_s)
-        run.model.start_from(relaxed.history[-1][1])
+        # the model now holds the replay's last film cycle, a few periods on: the loop commits the
+        # relaxed history (moved back) as the next cycle's start, and the checkpoint holds it
         cycle.timing["film_alone_solves"] = relaxed.solves
         cycle.timing["film_alone_s"] = relaxed.seconds
         cycle.timing["wall_s"] += relaxed.seconds
@@ -490,7 +489,11 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             friction_history=friction,
                             timings=timings,
                             thermal=oil.thermal.state() if oil.thermal is not None else None,
-                            film=run.model.committed_history() if run.model is not None else [],
+                            film=(
+                                relaxed.history
+                                if relaxed is not None
+                                else run.model.committed_history() if run.model is not None else []
+                            ),
                             elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
                             joint_histories=others,
                             big_end_film=run.big_model.committed_history() if run.big_has_history else [],
