@@ -489,11 +489,7 @@ def run_cycles(run, out_dir: Path, fingerprint: str, progress: bool, resume: boo
                             friction_history=friction,
                             timings=timings,
                             thermal=oil.thermal.state() if oil.thermal is not None else None,
-                            film=(
-                                relaxed.history
-                                if relaxed is not None
-                                else run.model.committed_history() if run.model is not None else []
-                            ),
+                            film=relaxed.history if relaxed is not None else end.film,
                             elapsed_s=run.earlier_wall_time + time.perf_counter() - run.started,
                             joint_histories=others,
                             big_end_film=run.big_model.committed_history() if run.big_has_history else [],
