@@ -33,4 +33,3 @@ if [ "$status" -eq 5 ]; then  # pytest's "no tests collected": the selection hol
     exit 0
 fi
 exit "$status"
-
