@@ -223,8 +223,8 @@ class Film:
         """Solve the film for the given kinematics (warm start from the last solution).
 
         With history, ``time_s`` [s] puts the rates of the history's states in the film (BDF2 through
-        states committed before ``time_s``: solver.film.history.FilmHistory.before); without
-        ``time_s`` (or before any commit) the film is quasi-static.
+        the two latest states committed before ``time_s``); without ``time_s`` (or before any commit)
+        the film is quasi-static.
         """
         start = time.perf_counter()
         stats = self.stats
