@@ -535,6 +535,39 @@ FIELDS: tuple[FieldSpec, ...] = (
         doc="fe, compliance_modes = 0: the largest truncation error of the displacement under the reference "
         "loads (uniform, 30 deg bumps; max norm, relative)",
     ),
+    _f(
+        "small_end",
+        "edge_relief_um",
+        "edge_relief_depth",
+        0.0,
+        1e-6,
+        0.0,
+        100.0,
+        closed=True,
+        unit="um",
+        doc="the bore's relief at each edge of the bushing: how much wider the gap is at the edge than in "
+        "the cylindrical middle (0: a cylindrical bore to the edges; docs/models.md)",
+    ),
+    _f(
+        "small_end",
+        "edge_relief_length_mm",
+        "edge_relief_length",
+        3.0,
+        1e-3,
+        0.0,
+        unit="mm",
+        doc="with edge_relief_um > 0: the relieved length at each edge; < small_end.width_mm / 2",
+    ),
+    FieldSpec(
+        "small_end",
+        "edge_relief_shape",
+        "edge_relief_shape",
+        str,
+        "parabolic",
+        choices=("parabolic", "linear"),
+        doc="with edge_relief_um > 0: the relief's profile over its length, parabolic (a crowned edge, "
+        "tangent to the bore where it starts) or linear (a taper)",
+    ),
     FieldSpec(
         "small_end",
         "pin",
@@ -1410,6 +1443,9 @@ class SmallEnd:
     compliance_tolerance: float = _field("small_end", "compliance_tolerance")
     compliance_grid_theta: int = _field("small_end", "compliance_grid_theta")
     compliance_grid_z: int = _field("small_end", "compliance_grid_z")
+    edge_relief_depth: float = _field("small_end", "edge_relief_depth")  # m, 0: none
+    edge_relief_length: float = _field("small_end", "edge_relief_length")  # m
+    edge_relief_shape: str = _field("small_end", "edge_relief_shape")
     pin: str = _field("small_end", "pin")  # fixed | floating
     pin_mass: float = _field("small_end", "pin_mass")  # kg, floating pin
     pin_inertia: float = _field("small_end", "pin_inertia")  # kg m^2, floating pin
@@ -1429,12 +1465,25 @@ class SmallEnd:
                 f"{self.eye_outer_radius * 1e3:g}",
                 f"> pin radius + bushing thickness = {(self.pin_radius + self.bushing_thickness) * 1e3:g}",
             )
+        if self.edge_relief is not None:
+            self.edge_relief.check_width(self.width)
         if not self.clearance < self.pin_radius:
             raise out_of_range(
                 "small_end.clearance_um",
                 f"{self.clearance * 1e6:g}",
                 f"< pin_radius = {self.pin_radius * 1e6:g} um",
             )
+
+    @property
+    def edge_relief(self):
+        """The bore's edge relief (solver.film.relief.EdgeRelief), or None for a cylindrical bore."""
+        if self.edge_relief_depth == 0.0:
+            return None
+        from solver.film.relief import EdgeRelief
+
+        return EdgeRelief(
+            depth=self.edge_relief_depth, length=self.edge_relief_length, shape=self.edge_relief_shape
+        )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1676,6 +1725,12 @@ class Case:
         _check_supply(self.oil, self.small_end)
         _check_pin(self)
         _check_big_end(self)
+        if self.small_end.edge_relief is not None and self.solver.joint != "mixed-fem":
+            raise InputError(
+                f"small_end.edge_relief_um = {self.small_end.edge_relief_depth * 1e6:g} shapes the "
+                f'finite-element film (allowed with solver.joint = "mixed-fem"; got {self.solver.joint!r}; '
+                "or small_end.edge_relief_um = 0)"
+            )
         # the film's compatibility rules, the same the bearing command and FilmSpec check
         check_film(
             cavitation=self.oil.cavitation,

@@ -231,6 +231,16 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ),
         ('[oil]\npiezoviscosity = "linear"\n', r"^oil.piezoviscosity = 'linear' is out of range"),
         ("[solver]\nmesh_edge_size = 2\n", r"^solver.mesh_edge_size = 2 is out of range"),
+        ("[small_end]\nedge_relief_um = -1\n", r"^small_end.edge_relief_um = -1 is out of range"),
+        (
+            "[small_end]\nedge_relief_um = 3\nedge_relief_length_mm = 10\n",
+            r"^small_end.edge_relief_length_mm = 10 is out of range \(allowed: \(0, 10\): less than half",
+        ),
+        ('[small_end]\nedge_relief_shape = "round"\n', r"^small_end.edge_relief_shape = 'round' is out"),
+        (
+            '[small_end]\nedge_relief_um = 3\n[solver]\njoint = "short-bearing"\n',
+            r"^small_end.edge_relief_um = 3 shapes the finite-element film \(allowed with solver.joint",
+        ),
     ],
 )
 def test_bad_values_give_one_line_errors_naming_the_field(tmp_path, text, message):
@@ -306,3 +316,37 @@ def test_the_edge_mesh_size_reaches_the_films_mesh(tmp_path, monkeypatch):
         with pytest.raises(RuntimeError, match="stand-in"):
             joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
         assert seen[-1].mesh_edge_size == expected
+
+
+def test_the_edge_relief_reaches_the_films_spec(tmp_path, monkeypatch):
+    """``small_end.edge_relief_*`` reach the small end's film as an EdgeRelief in SI units; absent (or a
+    depth of 0), none: a cylindrical bore, every case as it was."""
+    from mpi4py import MPI
+
+    import solver.film.factory as factory
+    from solver.dynamics.engine import engine_from_case
+    from solver.dynamics.joint import joint_from_case
+
+    seen = []
+
+    def record(spec, comm):
+        seen.append(spec)
+        raise RuntimeError("stand-in")
+
+    monkeypatch.setattr(factory, "make_film", record)
+    text = '[small_end]\nedge_relief_um = 4\nedge_relief_length_mm = 2.5\nedge_relief_shape = "linear"\n'
+    for text, expected in (
+        (text, (4e-6, 2.5e-3, "linear")),
+        ("", None),
+        ("[small_end]\nedge_relief_um = 0\n", None),
+    ):
+        case = load_case(write_case(tmp_path / f"c{len(seen)}", text))
+        with pytest.raises(RuntimeError, match="stand-in"):
+            joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
+        relief = seen[-1].edge_relief
+        if expected is None:
+            assert relief is None
+            continue
+        assert relief.depth == pytest.approx(expected[0], rel=1e-12)
+        assert relief.length == pytest.approx(expected[1], rel=1e-12)
+        assert relief.shape == expected[2]

@@ -545,9 +545,50 @@ def _check_elastic(args, comm) -> None:
             )
 
 
+def add_relief_arguments(parser: argparse.ArgumentParser) -> None:
+    """The bore's edge relief (solver.film.relief)."""
+    g = parser.add_argument_group("bore profile")
+    g.add_argument(
+        "--edge-relief",
+        type=_number("--edge-relief", 0, low_open=False, allowed=">= 0 m"),
+        default=0.0,
+        help="the bore's relief at each edge [m]: how much wider the gap is at the edge than in the "
+        "cylindrical middle (default 0: cylindrical to the edges)",
+    )
+    g.add_argument(
+        "--edge-relief-length",
+        type=_number("--edge-relief-length", 0, allowed="> 0 m, < --width / 2"),
+        default=3e-3,
+        help="the relieved length at each edge [m] (default 0.003; < --width / 2)",
+    )
+    g.add_argument(
+        "--edge-relief-shape",
+        choices=("parabolic", "linear"),
+        default="parabolic",
+        help="the relief's profile: parabolic (a crowned edge, tangent to the bore; default) or linear "
+        "(a taper)",
+    )
+
+
+def edge_relief_from_args(args):
+    """The EdgeRelief of the options, or None (no relief); a one-line error unless it leaves the bore's
+    middle cylindrical."""
+    if not getattr(args, "edge_relief", 0.0):
+        return None
+    from solver.film.relief import EdgeRelief
+
+    if not args.edge_relief_length < 0.5 * args.width:
+        raise InputError(
+            f"--edge-relief-length = {args.edge_relief_length:g} is out of range (allowed: > 0 m, "
+            f"< --width / 2 = {0.5 * args.width:g} m)"
+        )
+    return EdgeRelief(depth=args.edge_relief, length=args.edge_relief_length, shape=args.edge_relief_shape)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The bearing command's arguments."""
     add_geometry_arguments(parser)
+    add_relief_arguments(parser)
     add_surface_arguments(parser)
     add_elastic_arguments(parser)
     mode = parser.add_mutually_exclusive_group(required=True)
@@ -779,6 +820,7 @@ def film_spec(args, bearing, surface, omega_ref: float, sliding: float, quasi_st
         cavitated_shear=args.cavitated_shear,
         transport=getattr(args, "transport", None) or "limited",
         quasi_static=quasi_static,
+        edge_relief=edge_relief_from_args(args),
     )
 
 
@@ -968,6 +1010,10 @@ def run(args, comm) -> int:
         "sliding_speed_m_per_s": args.radius * sliding,
         "entrainment_speed_m_per_s": args.radius * wedge / 2,
         "cavitated_shear": args.cavitated_shear,
+        # the bore's edge relief (0: cylindrical to the edges)
+        "edge_relief_m": getattr(args, "edge_relief", 0.0),
+        "edge_relief_length_m": getattr(args, "edge_relief_length", None),
+        "edge_relief_shape": getattr(args, "edge_relief_shape", None),
     }
     if residual is not None:
         report["force_residual_N"] = residual

@@ -666,6 +666,7 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         clearance=se.clearance,
         supply=bearing_supply(oil),
         bushing=bushing,
+        edge_relief=se.edge_relief,
     )
     return FilmJoint(model), model
 
@@ -683,6 +684,7 @@ def _film_model(
     surface=None,
     joint="small_end",
     viscosity=None,
+    edge_relief=None,
 ):
     """The finite-element film (solver.film.model.Film) of a journal of ``radius`` in a bearing of
     ``width`` and radial ``clearance`` [m]: the oil of ``[oil]`` (viscosity, cavitation law and pressure,
@@ -691,7 +693,8 @@ def _film_model(
     ``surface``, a solver.film.surface.Surface), the mesh and transport of ``[solver]``, ``omega_ref`` the
     crank speed, and ``bushing`` (None: rigid); ``joint``: the case section that chose the bushing, named
     by the film's one-line errors; ``viscosity`` [Pa s]: the film's oil viscosity instead of ``[oil]``'s
-    (the piezoviscous law's reference too)."""
+    (the piezoviscous law's reference too); ``edge_relief``: the bore's (solver.film.relief.EdgeRelief) or
+    None."""
     from solver.film.spec import FilmSpec
     from solver.film.types import Bearing
     from solver.film.viscosity import viscosity_law
@@ -722,6 +725,7 @@ def _film_model(
         transport=solver.film_fraction_transport,
         cavitated_shear=oil.cavitated_shear,
         joint=joint,
+        edge_relief=edge_relief,
     )
     from solver.film.factory import make_film  # dolfinx, PETSc and gmsh: only for a finite-element joint
 

@@ -71,7 +71,8 @@ class FilmForms:
             if space.W is None and set(names) <= set(RigidMidpointCoefficients.INTEGRALS):
                 # the coefficients at the midpoints in numpy rather than by the compiled Expression
                 def fast(op):
-                    return RigidMidpointCoefficients(op, space.params, space.roughness, names)
+                    relief = space.relief_at(op.centroid[:, 2])
+                    return RigidMidpointCoefficients(op, space.params, space.roughness, names, relief=relief)
 
             self.operator = MidpointOperator(
                 space.V,
@@ -89,6 +90,7 @@ class FilmForms:
                 space.roughness,
                 float(space.params.S.value),
                 flow_floor=None if space.W is None else space.flow_floor,
+                relief=space.relief,
             )
             self.scalars = [(keys, f) for keys, f in self.scalars if not set(keys) <= set(_PRESSURE_TORQUES)]
 
@@ -301,8 +303,12 @@ class FilmForms:
                 - eps_x * space.vertex_cos
                 - eps_y * space.vertex_sin
                 + space.W.x.array[self.operator.dofs]
+                + space.vertex_relief
             )
             return space.owned_cells[H.min(axis=1) < limit]
+        if space.relief is not None:  # the rigid gap's least vertex value plus the relief's
+            H = 1.0 - eps_x * space.vertex_cos - eps_y * space.vertex_sin
+            return space.owned_cells[H.min(axis=1) + space.vertex_relief.min(axis=1) < limit]
         below = 1.0 - eps_x * space.node_cos - eps_y * space.node_sin < limit  # at the nodes
         a, b, c = space.cell_nodes
         return space.owned_cells[below[a] | below[b] | below[c]]

@@ -92,7 +92,8 @@ class FilmGeometry:
     T_n) (a Constant; 0: quasi-static) the squeeze term has the deformation's rate (W - W_n) / (T - T_n).
     The flow and the shear stresses then use ``H_flow``, H floored smoothly below ``flow_floor`` (the
     nominal gap may close locally where the pin presses into the bushing); without deformation
-    ``H_flow`` is H.
+    ``H_flow`` is H. ``relief``, a function ``(z, mod) -> H_r`` of the axial coordinate (the bore's edge
+    relief, solver.film.relief), adds a fixed profile to H_rigid.
     """
 
     def __init__(
@@ -103,6 +104,7 @@ class FilmGeometry:
         previous_deformation=None,
         inverse_step=None,
         flow_floor: float = 0.0,
+        relief=None,
     ):
         x = ufl.SpatialCoordinate(mesh)
         r = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
@@ -116,6 +118,8 @@ class FilmGeometry:
         self.U_mean, self.U_half_diff = ufl.variable(params.U_mean), ufl.variable(params.U_half_diff)
         self.params = params
         self.H = 1.0 - self.eps_x * self.cos - self.eps_y * self.sin
+        if relief is not None:  # the bore's edge relief H_r(z), fixed: no rate, no theta slope
+            self.H = self.H + relief(self.z, mod=ufl)
         self.dH_dtheta = self.eps_x * self.sin - self.eps_y * self.cos
         self.dH_dT = -self.deps_x * self.cos - self.deps_y * self.sin
         self.W = self.dW_dtheta = None

@@ -418,8 +418,10 @@ class CoupledFilm:
     def _solve(self) -> int:
         space, ehd = self.space, self.ehd
         coords = space.owned_coords
-        ehd.rigid_gap = 1.0 - coords[:, :2] @ np.array(
-            [float(space.params.eps_x.value), float(space.params.eps_y.value)]
+        ehd.rigid_gap = (
+            1.0
+            + space.dof_relief
+            - coords[:, :2] @ np.array([float(space.params.eps_x.value), float(space.params.eps_y.value)])
         )
         start = self.history.start if self.history is not None else None
         try:

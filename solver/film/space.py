@@ -9,6 +9,8 @@ thickness, a rigid one has none. The reference pressure p_ref is a ``fem.Constan
 
 from __future__ import annotations
 
+import functools
+
 from petsc4py import PETSc
 
 import numpy as np
@@ -46,6 +48,15 @@ class FilmSpace:
         )
         self.sigma = spec.sigma
         R = bearing.radius
+        relief = spec.edge_relief
+        #: the bore's edge relief H_r(z / R, mod) (solver.film.relief), or None: a cylindrical bore
+        self.relief = (
+            None
+            if relief is None or relief.depth == 0.0
+            else functools.partial(
+                relief.thickness, radius=R, clearance=bearing.clearance, width=bearing.width
+            )
+        )
         # aligned surfaces, edges at the same pressure, a supply on the mid-plane: the film is
         # symmetric about the mid-plane, so only its half z >= 0 is solved (half the unknowns) and
         # every integral over the film is doubled (solver.film.mesh)
@@ -82,6 +93,7 @@ class FilmSpace:
             previous_deformation=self.W_previous,
             inverse_step=self.inverse_step,
             flow_floor=self.flow_floor,
+            relief=self.relief,
         )
         n_owned_cells = self.mesh.topology.index_map(2).size_local
         self.owned_cells = np.arange(n_owned_cells, dtype=np.int32)
@@ -93,11 +105,15 @@ class FilmSpace:
         node_angle = np.arctan2(self.mesh.geometry.x[:, 1], self.mesh.geometry.x[:, 0])
         self.node_cos, self.node_sin = np.cos(node_angle), np.sin(node_angle)
         self.cell_nodes = [np.ascontiguousarray(cell_nodes[:, k]) for k in range(3)]
+        #: the relief at each cell's vertices (0 without): H_r is convex and grows with |z|, so its least
+        #: value on a cell (of the half film, or not straddling the mid-plane) is at a vertex
+        self.vertex_relief = self.relief_at(x[..., 2])
         spread = np.ptp(np.unwrap(angle, axis=1), axis=1)
         self.cell_extent = float(np.max(spread, initial=0.0))  # rad, the largest angular extent of a cell
         self.dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
         self.owned_coords = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local].copy()
         self.n = len(self.owned_coords)
+        self.dof_relief = self.relief_at(self.owned_coords[:, 2])  # at the owned dofs
         self.bcs = self._boundary_conditions()
         #: serial P1: the operator from precomputed tensors (solver.film.tensors), set by the film's forms
         self.serial_p1 = self.comm.size == 1 and spec.degree == 1
@@ -106,6 +122,10 @@ class FilmSpace:
             compile_form(ufl.TestFunction(self.V) * ufl.dx(domain=self.mesh))
         )
         self.nodal_areas.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+
+    def relief_at(self, z: np.ndarray) -> np.ndarray:
+        """The relief H_r at the axial coordinates z / R (zeros without relief)."""
+        return np.zeros_like(z) if self.relief is None else self.relief(z)
 
     # -- pressures --------------------------------------------------------------------------------
     def reduced(self, p: float) -> float:

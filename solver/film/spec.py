@@ -48,6 +48,8 @@ class FilmSpec:
             so the max-gap inlet is allowed with a history (solver.film_rules).
         joint: the engine's joint whose case section chose the bushing ("small_end", "big_end",
             "pin_boss"): the section its one-line errors name.
+        edge_relief: the bore's relief at both edges (solver.film.relief.EdgeRelief), or None: a
+            cylindrical bore.
     """
 
     bearing: Bearing
@@ -67,6 +69,7 @@ class FilmSpec:
     cavitated_shear: str = "film-fraction"
     quasi_static: bool = False
     joint: str = "small_end"
+    edge_relief: Any = None
 
     def __post_init__(self) -> None:
         self.check()
@@ -104,3 +107,5 @@ class FilmSpec:
             sigmas=tuple(x.sigma for x in (self.roughness, self.contact) if x is not None),
             joint=self.joint,
         )
+        if self.edge_relief is not None:
+            self.edge_relief.check_width(self.bearing.width)

@@ -186,11 +186,14 @@ class PressureTorque:
         S: sigma / c.
         flow_floor: the elastic film's floor of H in the flow (FilmGeometry's ``flow_floor``); None for
             a rigid bushing.
+        relief: the bore's edge relief, a function of z / R (FilmSpace.relief), or None.
     """
 
     DEGREE = 2
 
-    def __init__(self, V: fem.FunctionSpace, roughness, S: float, flow_floor: float | None = None):
+    def __init__(
+        self, V: fem.FunctionSpace, roughness, S: float, flow_floor: float | None = None, relief=None
+    ):
         points, weights = basix.make_quadrature(basix.CellType.triangle, self.DEGREE)
         dofs, X, J, G, area = _cell_geometry(V, "PressureTorque")
         n_cells = len(dofs)
@@ -198,6 +201,7 @@ class PressureTorque:
         x = X[:, None, 0, :] + np.einsum("cki,qi->cqk", J, points)  # (cell, q, xyz)
         r = np.hypot(x[..., 0], x[..., 1])
         self.cos, self.sin = (x[..., 0] / r).ravel(), (x[..., 1] / r).ravel()
+        self.relief = 0.0 if relief is None else relief(x[..., 2].ravel())  # H_r at the points
         tangent = np.stack([-x[..., 1] / r, x[..., 0] / r], axis=-1)  # (cell, q, 2): the z part is 0
         slopes = np.einsum("cqk,ckb->cqb", tangent, G[:, :2, :])  # (cell, q, basis)
         values = (weights[None, :, None] * area[:, None, None] * slopes).ravel()
@@ -216,7 +220,7 @@ class PressureTorque:
 
     def coefficient(self, eps_x: float, eps_y: float, W: np.ndarray | None = None) -> np.ndarray:
         """c = -6 Phi_fp(H/S) H_flow at the points (H_flow = H on a rigid bushing)."""
-        H = 1.0 - eps_x * self.cos - eps_y * self.sin
+        H = 1.0 - eps_x * self.cos - eps_y * self.sin + self.relief
         H_flow = H
         if W is not None:
             H = H + self.interpolation @ W
@@ -254,11 +258,12 @@ class RigidMidpointCoefficients:
         roughness: PatirCheng, or None.
         integrals: the names of the operator's integrals, each "viscous_couette_journal" or
             "viscous_couette_bushing".
+        relief: the bore's edge relief H_r at the midpoints (solver.film.relief), or None.
     """
 
     INTEGRALS = ("viscous_couette_journal", "viscous_couette_bushing")
 
-    def __init__(self, operator: MidpointOperator, params, roughness, integrals):
+    def __init__(self, operator: MidpointOperator, params, roughness, integrals, relief=None):
         if any(name not in self.INTEGRALS for name in integrals):
             raise ValueError(
                 f"RigidMidpointCoefficients: integrals {list(integrals)} (allowed: {self.INTEGRALS})"
@@ -267,6 +272,7 @@ class RigidMidpointCoefficients:
         centroid = operator.centroid
         r = np.hypot(centroid[:, 0], centroid[:, 1])
         self.cos, self.sin = centroid[:, 0] / r, centroid[:, 1] / r
+        self.relief = 0.0 if relief is None else relief  # H_r at the midpoints
         self.params, self.roughness = params, roughness
         self.out = np.empty((len(r), 3 + len(self.integrals)))
 
@@ -274,7 +280,7 @@ class RigidMidpointCoefficients:
         """(cells, 3 + integrals): k_theta, k_z, f and the integrands at the midpoints."""
         p = self.params.get()
         cos, sin, rough, out = self.cos, self.sin, self.roughness, self.out
-        H = 1.0 - p["eps_x"] * cos - p["eps_y"] * sin
+        H = 1.0 - p["eps_x"] * cos - p["eps_y"] * sin + self.relief
         dH_dtheta = p["eps_x"] * sin - p["eps_y"] * cos
         dH_dT = -p["deps_x"] * cos - p["deps_y"] * sin
         H3 = H**3

@@ -152,6 +152,11 @@ def _replace(args, flag, value):
             GOOD + ["--eccentricity", "0.5", "--hole-angle", "0", "--hole-diameter", "0.015"],
             "--hole-diameter",
         ),
+        (GOOD + ["--eccentricity", "0.5", "--edge-relief", "-1e-6"], "--edge-relief"),
+        (
+            GOOD + ["--eccentricity", "0.5", "--edge-relief", "3e-6", "--edge-relief-length", "0.02"],
+            "--edge-relief-length",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2(args, names):
