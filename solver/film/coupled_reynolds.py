@@ -86,8 +86,8 @@ class ReynoldsRows:
             )
             self._shell.setUp()
             self.snes.setJacobian(self._blocks_only, self._shell)
-        self.damped = DampedLU(self.comm, newton.limit)  # the semismooth method's: LU, limited step
-        for snes, context in ((self.snes, self.lu), (self.far, self.damped)):
+        self.damped_lu = DampedLU(self.comm, newton.limit)  # the semismooth method's: LU, limited step
+        for snes, context in ((self.snes, self.lu), (self.far, self.damped_lu)):
             pc = snes.getKSP().getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
             pc.setPythonContext(context)
@@ -305,7 +305,7 @@ class ReynoldsRows:
 
     def close(self) -> None:
         self.lu.destroy()
-        self.damped.destroy()
+        self.damped_lu.destroy()
         for obj in (self.snes, self.far, self.lower_vec, self.upper_vec, self._shell):
             if obj is not None:
                 obj.destroy()

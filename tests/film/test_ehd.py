@@ -421,3 +421,25 @@ def test_schur_complement_gives_the_whole_lu_iterates(coarse_eye, monkeypatch):
         assert np.abs(x[:n] - x_ref[:n]).max() <= 1e-9 * np.abs(x_ref[:n]).max()
         assert np.abs(x[n:] - x_ref[n:]).max() <= 1e-9 * np.abs(x_ref[n:]).max()
         assert np.all(np.abs(J - J_ref) <= 1e-8 * np.abs(J_ref).max(axis=1, keepdims=True))
+
+
+@pytest.mark.serial
+def test_a_failed_cold_start_of_the_elastic_reynolds_film_is_reported_as_such(monkeypatch):
+    """A coupled solve that fails with no accepted state to continue from: the Reynolds block has no damped
+    retry (the JFO block has), so the film reports FilmNotConverged, which the equilibrium search and the
+    integrator handle (they step back). Found when the Reynolds block's damped LU (a preconditioner, not a
+    retry) was taken for the retry: a TypeError and a traceback from `bearing --load` (the FE eye at 20 kN
+    with an edge relief, compliance grid 72 x 9)."""
+    from solver.errors import FilmNotConverged
+    from solver.film.ehd import CoupledNewton
+
+    def fail(self):
+        raise FilmNotConverged("elastic film solve did not converge", -9, 33)
+
+    bearing = Bearing(radius=R, width=2 * R, clearance=C, viscosity=MU, inlet="none")
+    with FilmModel(
+        bearing, MPI.COMM_SELF, omega_ref=OMEGA, mesh_size=0.25, elastic=WinklerLayer(**BRONZE)
+    ) as model:
+        monkeypatch.setattr(CoupledNewton, "solve", fail)
+        with pytest.raises(FilmNotConverged, match="did not converge"):
+            model.solve(Kinematics((0.0, -0.9 * C), (0.0, 0.0), OMEGA, 0.0))
