@@ -30,10 +30,11 @@ from dolfinx import fem
 from solver.errors import InputError
 from solver.film import reynolds as film
 from solver.film.bearing import Bearing, FilmModel, Kinematics
-from solver.film.cavitation import CavitatingSolver
-from solver.film.mesh import TAGS, FilmMeshSpec, film_mesh
+from solver.film.mesh import FilmMeshSpec, film_mesh
 from solver.film.relief import EdgeRelief
 from solver.film.surface import Surface
+from tests.film.test_film_tensors import assert_the_contact_cells_hold_the_contact
+from tests.film.test_reynolds_mms import mms_errors
 
 WIDTH, EPS = 1.0, 0.5  # the manufactured solution's film (unit radius and clearance), as test_reynolds_mms
 RELIEF = EdgeRelief(depth=0.5, length=0.25)  # H_r from 0 at |z| = 0.25 to 0.5 at the edges |z| = 0.5
@@ -97,19 +98,7 @@ def _solve_mms(comm, h: float) -> tuple[float, float]:
     P_exact, f, th, z, r, dr = _exact_and_source()
     Pe = _to_ufl(P_exact, th, z, r, dr, g.cos, g.sin, g.z, r_ufl, dr_ufl)
     source = _to_ufl(f, th, z, r, dr, g.cos, g.sin, g.z, r_ufl, dr_ufl)
-    P, v, dP = fem.Function(V), ufl.TestFunction(V), ufl.TrialFunction(V)
-    dx = ufl.dx(metadata={"quadrature_degree": 6})
-    residual = film.reynolds_integrand(P, v, g) + source * v  # -div(H^3 grad P) + f = 0
-    a = fem.form(ufl.derivative(residual * dx, P, dP))
-    L = fem.form(ufl.replace(residual, {P: ufl.zero()}) * dx)
-    edges = np.concatenate([facet_tags.find(TAGS["edge_minus"]), facet_tags.find(TAGS["edge_plus"])])
-    bc = fem.dirichletbc(fem.Function(V), fem.locate_dofs_topological(V, 1, edges))
-    with CavitatingSolver(a, L, P, [bc], lower=-1e3) as solver:
-        solver.solve()
-    err_L2 = fem.form((P - Pe) ** 2 * dx)
-    err_H1 = fem.form(ufl.inner(ufl.grad(P - Pe), ufl.grad(P - Pe)) * dx)
-    sums = [comm.allreduce(fem.assemble_scalar(e), op=MPI.SUM) for e in (err_L2, err_H1)]
-    return math.sqrt(sums[0]), math.sqrt(sums[1])
+    return mms_errors(comm, V, facet_tags, g, Pe, source)
 
 
 @pytest.mark.mpi
@@ -177,13 +166,7 @@ def test_fast_paths_carry_the_relief():
             eps = float(model.space.params.eps_x.value), float(model.space.params.eps_y.value)
             fast = torque(model.pressure.x.array[:n], *eps)
             assert abs(fast - exact) <= 1e-12 * abs(exact)
-            cells = model.forms.contact_cells()
-            assert 0 < len(cells) < 0.5 * len(model.space.owned_cells)
-            for _, functionals in model.forms.scalars:
-                if functionals.contact_only:
-                    kept, everywhere = functionals(cells), functionals(None)
-                    assert np.abs(everywhere).max() > 0
-                    assert np.abs(kept - everywhere).max() <= 1e-14 * np.abs(everywhere).max()
+            assert_the_contact_cells_hold_the_contact(model)
             h = model.fields_si()["film_thickness"].x.array[:n]
             x = model.space.V.tabulate_dof_coordinates()[:n]
             z = np.abs(x[:, 2]) * R

@@ -55,6 +55,12 @@ def solve_mms(comm, h: float):
     P_exact, f, th, z = _exact_and_source()
     Pe = _to_ufl(P_exact, th, z, g.cos, g.sin, g.z)
     source = _to_ufl(f, th, z, g.cos, g.sin, g.z)
+    return mms_errors(comm, V, facet_tags, g, Pe, source)
+
+
+def mms_errors(comm, V, facet_tags, g, Pe, source) -> tuple[float, float]:
+    """The L2 and H1-seminorm errors against ``Pe`` of the P1 solution of -div(H^3 grad P) + f = 0 with the
+    geometry ``g`` and the source ``f`` (UFL), P = 0 on both edges (the VI with an inactive bound)."""
     P, v, dP = fem.Function(V), ufl.TestFunction(V), ufl.TrialFunction(V)
     dx = ufl.dx(metadata={"quadrature_degree": 6})
     residual = film.reynolds_integrand(P, v, g) + source * v  # -div(H^3 grad P) + f = 0
