@@ -1286,6 +1286,14 @@ _BIG_EYE = {
     "compliance_grid_theta": {},
     "compliance_grid_z": {},
     "compliance_tolerance": {},
+    "edge_relief_um": {
+        "doc": "the big-end shell's relief at each edge: how much wider the gap is at the edge than in the "
+        "cylindrical middle (0: cylindrical to the edges; with big_end.joint = mixed-fem; docs/models.md)",
+    },
+    "edge_relief_length_mm": {
+        "doc": "with edge_relief_um > 0: the relieved length at each edge; < big_end.width_mm / 2",
+    },
+    "edge_relief_shape": {},
 }
 _at = next(i for i, s in enumerate(FIELDS) if s.section == "big_end" and s.key == "bushing_thickness_mm")
 FIELDS = (
@@ -1477,13 +1485,21 @@ class SmallEnd:
     @property
     def edge_relief(self):
         """The bore's edge relief (solver.film.relief.EdgeRelief), or None for a cylindrical bore."""
-        if self.edge_relief_depth == 0.0:
-            return None
-        from solver.film.relief import EdgeRelief
+        return _edge_relief(self, "small_end")
 
-        return EdgeRelief(
-            depth=self.edge_relief_depth, length=self.edge_relief_length, shape=self.edge_relief_shape
-        )
+
+def _edge_relief(section: SmallEnd | BigEnd, name: str):
+    """The EdgeRelief of a section's ``edge_relief_*`` fields, or None when its depth is 0."""
+    if section.edge_relief_depth == 0.0:
+        return None
+    from solver.film.relief import EdgeRelief
+
+    return EdgeRelief(
+        depth=section.edge_relief_depth,
+        length=section.edge_relief_length,
+        shape=section.edge_relief_shape,
+        section=name,
+    )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1510,6 +1526,9 @@ class BigEnd:
     compliance_tolerance: float = _field("big_end", "compliance_tolerance")
     compliance_grid_theta: int = _field("big_end", "compliance_grid_theta")
     compliance_grid_z: int = _field("big_end", "compliance_grid_z")
+    edge_relief_depth: float = _field("big_end", "edge_relief_depth")  # m, 0: none
+    edge_relief_length: float = _field("big_end", "edge_relief_length")  # m
+    edge_relief_shape: str = _field("big_end", "edge_relief_shape")
 
     def __post_init__(self) -> None:
         _check_section(self, "big_end")
@@ -1520,6 +1539,8 @@ class BigEnd:
             bushing_thickness=None if self.elastic == "none" else self.bushing_thickness,
             names=BIG_END_LENGTHS,
         )
+        if self.edge_relief is not None:
+            self.edge_relief.check_width(self.width)
         if self.elastic != "fe":
             return
         nodes = self.compliance_grid_theta * self.compliance_grid_z
@@ -1540,6 +1561,11 @@ class BigEnd:
     def lubricated(self) -> bool:
         """A clearance joint rather than an ideal revolute."""
         return self.joint != "ideal"
+
+    @property
+    def edge_relief(self):
+        """The shell's edge relief (solver.film.relief.EdgeRelief), or None for a cylindrical bore."""
+        return _edge_relief(self, "big_end")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1781,6 +1807,11 @@ def _check_big_end(case: Case) -> None:
     """A finite-element big end: the film of [oil] (Reynolds or JFO) in a rigid eye, a Winkler shell or
     the FE eye; a supply hole in the crankpin fed into it."""
     be = case.big_end
+    if be.edge_relief is not None and be.joint != "mixed-fem":
+        raise InputError(
+            f"big_end.edge_relief_um = {be.edge_relief_depth * 1e6:g} shapes the finite-element film "
+            f'(allowed with big_end.joint = "mixed-fem"; got {be.joint!r}; or big_end.edge_relief_um = 0)'
+        )
     if be.supply == "hole":
         if be.joint != "mixed-fem":
             raise InputError(

@@ -238,6 +238,14 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ),
         ('[small_end]\nedge_relief_shape = "round"\n', r"^small_end.edge_relief_shape = 'round' is out"),
         (
+            "[big_end]\nedge_relief_um = 2\n",
+            r"^big_end.edge_relief_um = 2 shapes the finite-element film \(allowed with big_end.joint",
+        ),
+        (
+            '[big_end]\njoint = "mixed-fem"\nedge_relief_um = 2\nedge_relief_length_mm = 10\n',
+            r"^big_end.edge_relief_length_mm = 10 is out of range \(allowed: \(0, 10\)",
+        ),
+        (
             '[small_end]\nedge_relief_um = 3\n[solver]\njoint = "short-bearing"\n',
             r"^small_end.edge_relief_um = 3 shapes the finite-element film \(allowed with solver.joint",
         ),
@@ -350,3 +358,32 @@ def test_the_edge_relief_reaches_the_films_spec(tmp_path, monkeypatch):
         assert relief.depth == pytest.approx(expected[0], rel=1e-12)
         assert relief.length == pytest.approx(expected[1], rel=1e-12)
         assert relief.shape == expected[2]
+
+
+def test_the_big_end_s_edge_relief_reaches_its_film(tmp_path, monkeypatch):
+    """``big_end.edge_relief_*`` reach the mixed-fem big end's film (with and without its supply hole, whose
+    film is solved in the crankpin's frame: the relief depends on z only); the small end's stays None."""
+    from mpi4py import MPI
+
+    import solver.film.factory as factory
+    from solver.dynamics.engine import engine_from_case
+    from solver.dynamics.joint import big_end_joint_from_case
+
+    seen = []
+
+    def record(spec, comm):
+        seen.append(spec)
+        raise RuntimeError("stand-in")
+
+    monkeypatch.setattr(factory, "make_film", record)
+    relief = '[big_end]\njoint = "mixed-fem"\nedge_relief_um = 5\nedge_relief_length_mm = 4\n'
+    for k, text in enumerate((relief, relief + 'supply = "hole"\n[oil]\ninlet = "none"\n')):
+        case = load_case(write_case(tmp_path / f"c{k}", text))
+        assert case.small_end.edge_relief is None
+        with pytest.raises(RuntimeError, match="stand-in"):
+            big_end_joint_from_case(case, engine_from_case(case), MPI.COMM_SELF)
+        spec = seen[-1]
+        assert spec.joint == "big_end"
+        assert spec.edge_relief.depth == pytest.approx(5e-6, rel=1e-12)
+        assert spec.edge_relief.length == pytest.approx(4e-3, rel=1e-12)
+        assert spec.edge_relief.section == "big_end"

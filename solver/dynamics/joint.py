@@ -859,6 +859,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 bushing=bushing,
                 surface=surface_from_case(surf),
                 joint="big_end",
+                edge_relief=be.edge_relief,
             )
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
@@ -879,6 +880,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             bushing=bushing,
             surface=surface,
             joint="big_end",
+            edge_relief=be.edge_relief,  # a function of z only: the same in the crankpin's frame
         )
         return JournalFrameFilmJoint(FilmJoint(model), crankpin_angle_to_rod(engine))
     raise InputError(
