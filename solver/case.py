@@ -37,6 +37,7 @@ from solver.film_rules import (
     PIN_BOSS_LENGTHS,
     RADIUS_RANGE,
     WIDTH_RATIO_RANGE,
+    check_edge_relief_length,
     check_film,
     check_geometry,
 )
@@ -1473,33 +1474,14 @@ class SmallEnd:
                 f"{self.eye_outer_radius * 1e3:g}",
                 f"> pin radius + bushing thickness = {(self.pin_radius + self.bushing_thickness) * 1e3:g}",
             )
-        if self.edge_relief is not None:
-            self.edge_relief.check_width(self.width)
+        if self.edge_relief_depth > 0.0:
+            check_edge_relief_length(self.edge_relief_length, self.width, "small_end")
         if not self.clearance < self.pin_radius:
             raise out_of_range(
                 "small_end.clearance_um",
                 f"{self.clearance * 1e6:g}",
                 f"< pin_radius = {self.pin_radius * 1e6:g} um",
             )
-
-    @property
-    def edge_relief(self):
-        """The bore's edge relief (solver.film.relief.EdgeRelief), or None for a cylindrical bore."""
-        return _edge_relief(self, "small_end")
-
-
-def _edge_relief(section: SmallEnd | BigEnd, name: str):
-    """The EdgeRelief of a section's ``edge_relief_*`` fields, or None when its depth is 0."""
-    if section.edge_relief_depth == 0.0:
-        return None
-    from solver.film.relief import EdgeRelief
-
-    return EdgeRelief(
-        depth=section.edge_relief_depth,
-        length=section.edge_relief_length,
-        shape=section.edge_relief_shape,
-        section=name,
-    )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1539,8 +1521,8 @@ class BigEnd:
             bushing_thickness=None if self.elastic == "none" else self.bushing_thickness,
             names=BIG_END_LENGTHS,
         )
-        if self.edge_relief is not None:
-            self.edge_relief.check_width(self.width)
+        if self.edge_relief_depth > 0.0:
+            check_edge_relief_length(self.edge_relief_length, self.width, "big_end")
         if self.elastic != "fe":
             return
         nodes = self.compliance_grid_theta * self.compliance_grid_z
@@ -1561,11 +1543,6 @@ class BigEnd:
     def lubricated(self) -> bool:
         """A clearance joint rather than an ideal revolute."""
         return self.joint != "ideal"
-
-    @property
-    def edge_relief(self):
-        """The shell's edge relief (solver.film.relief.EdgeRelief), or None for a cylindrical bore."""
-        return _edge_relief(self, "big_end")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -1751,7 +1728,7 @@ class Case:
         _check_supply(self.oil, self.small_end)
         _check_pin(self)
         _check_big_end(self)
-        if self.small_end.edge_relief is not None and self.solver.joint != "mixed-fem":
+        if self.small_end.edge_relief_depth > 0.0 and self.solver.joint != "mixed-fem":
             raise InputError(
                 f"small_end.edge_relief_um = {self.small_end.edge_relief_depth * 1e6:g} shapes the "
                 f'finite-element film (allowed with solver.joint = "mixed-fem"; got {self.solver.joint!r}; '
@@ -1807,7 +1784,7 @@ def _check_big_end(case: Case) -> None:
     """A finite-element big end: the film of [oil] (Reynolds or JFO) in a rigid eye, a Winkler shell or
     the FE eye; a supply hole in the crankpin fed into it."""
     be = case.big_end
-    if be.edge_relief is not None and be.joint != "mixed-fem":
+    if be.edge_relief_depth > 0.0 and be.joint != "mixed-fem":
         raise InputError(
             f"big_end.edge_relief_um = {be.edge_relief_depth * 1e6:g} shapes the finite-element film "
             f'(allowed with big_end.joint = "mixed-fem"; got {be.joint!r}; or big_end.edge_relief_um = 0)'

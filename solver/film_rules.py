@@ -20,7 +20,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
-from solver.errors import InputError
+from solver.errors import InputError, out_of_range
 
 CAVITATION_LAWS = ("reynolds", "jfo")
 BUSHINGS = ("none", "winkler", "fe")
@@ -119,6 +119,17 @@ def check_film(
         )
     if sigmas and not math.isclose(min(sigmas), max(sigmas), rel_tol=1e-12):
         raise InputError("roughness.sigma and contact.sigma differ (allowed: the same composite roughness)")
+
+
+def check_edge_relief_length(length: float, width: float, section: str = "small_end") -> None:
+    """Raise InputError unless a bore's edge relief of ``length`` [m] at each edge leaves the middle of a
+    bearing of ``width`` [m] cylindrical (l < B / 2; solver.film.relief)."""
+    if not length < 0.5 * width:
+        raise out_of_range(
+            f"{section}.edge_relief_length_mm",
+            f"{length * 1e3:g}",
+            f"(0, {0.5 * width * 1e3:g}): less than half the bearing's width",
+        )
 
 
 def reference_speed(wedge: float, sliding: float, squeeze: float) -> float:

@@ -379,7 +379,7 @@ def test_the_big_end_s_edge_relief_reaches_its_film(tmp_path, monkeypatch):
     relief = '[big_end]\njoint = "mixed-fem"\nedge_relief_um = 5\nedge_relief_length_mm = 4\n'
     for k, text in enumerate((relief, relief + 'supply = "hole"\n[oil]\ninlet = "none"\n')):
         case = load_case(write_case(tmp_path / f"c{k}", text))
-        assert case.small_end.edge_relief is None
+        assert case.small_end.edge_relief_depth == 0.0
         with pytest.raises(RuntimeError, match="stand-in"):
             big_end_joint_from_case(case, engine_from_case(case), MPI.COMM_SELF)
         spec = seen[-1]

@@ -666,9 +666,24 @@ def joint_from_case(case: Case, engine, comm, joint: str):
         clearance=se.clearance,
         supply=bearing_supply(oil),
         bushing=bushing,
-        edge_relief=se.edge_relief,
+        edge_relief=edge_relief(se, "small_end"),
     )
     return FilmJoint(model), model
+
+
+def edge_relief(section, name: str):
+    """The bore's EdgeRelief (solver.film.relief) of a case section's ``edge_relief_*`` fields ([small_end] or
+    [big_end], named ``name``), or None when its depth is 0 (a cylindrical bore)."""
+    if section.edge_relief_depth == 0.0:
+        return None
+    from solver.film.relief import EdgeRelief
+
+    return EdgeRelief(
+        depth=section.edge_relief_depth,
+        length=section.edge_relief_length,
+        shape=section.edge_relief_shape,
+        section=name,
+    )
 
 
 def _film_model(
@@ -859,7 +874,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
                 bushing=bushing,
                 surface=surface_from_case(surf),
                 joint="big_end",
-                edge_relief=be.edge_relief,
+                edge_relief=edge_relief(be, "big_end"),
             )
             return FilmJoint(model)
         # the crankpin's hole turns with it: the film in the crankpin's frame, its surfaces exchanged
@@ -880,7 +895,7 @@ def big_end_joint_from_case(case: Case, engine=None, comm=None) -> ClearanceJoin
             bushing=bushing,
             surface=surface,
             joint="big_end",
-            edge_relief=be.edge_relief,  # a function of z only: the same in the crankpin's frame
+            edge_relief=edge_relief(be, "big_end"),  # a function of z only: the same in the crankpin's frame
         )
         return JournalFrameFilmJoint(FilmJoint(model), crankpin_angle_to_rod(engine))
     raise InputError(

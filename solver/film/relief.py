@@ -24,6 +24,7 @@ import dataclasses
 import numpy as np
 
 from solver.errors import out_of_range
+from solver.film_rules import check_edge_relief_length
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -56,12 +57,7 @@ class EdgeRelief:
 
     def check_width(self, width: float) -> None:
         """Raise InputError unless the relief leaves the bore's middle cylindrical (l < B / 2)."""
-        if not self.length < 0.5 * width:
-            raise out_of_range(
-                f"{self.section}.edge_relief_length_mm",
-                f"{self.length * 1e3:g}",
-                f"(0, {0.5 * width * 1e3:g}): less than half the bearing's width",
-            )
+        check_edge_relief_length(self.length, width, self.section)
 
     @property
     def power(self) -> int:
