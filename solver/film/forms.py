@@ -71,7 +71,7 @@ class FilmForms:
             if space.W is None and set(names) <= set(RigidMidpointCoefficients.INTEGRALS):
                 # the coefficients at the midpoints in numpy rather than by the compiled Expression
                 def fast(op):
-                    relief = space.relief_at(op.centroid[:, 2])
+                    relief = None if space.relief is None else space.relief(op.centroid[:, 2])
                     return RigidMidpointCoefficients(op, space.params, space.roughness, names, relief=relief)
 
             self.operator = MidpointOperator(

@@ -201,7 +201,7 @@ class PressureTorque:
         x = X[:, None, 0, :] + np.einsum("cki,qi->cqk", J, points)  # (cell, q, xyz)
         r = np.hypot(x[..., 0], x[..., 1])
         self.cos, self.sin = (x[..., 0] / r).ravel(), (x[..., 1] / r).ravel()
-        self.relief = 0.0 if relief is None else relief(x[..., 2].ravel())  # H_r at the points
+        self.relief = None if relief is None else relief(x[..., 2].ravel())  # H_r at the points
         tangent = np.stack([-x[..., 1] / r, x[..., 0] / r], axis=-1)  # (cell, q, 2): the z part is 0
         slopes = np.einsum("cqk,ckb->cqb", tangent, G[:, :2, :])  # (cell, q, basis)
         values = (weights[None, :, None] * area[:, None, None] * slopes).ravel()
@@ -220,7 +220,9 @@ class PressureTorque:
 
     def coefficient(self, eps_x: float, eps_y: float, W: np.ndarray | None = None) -> np.ndarray:
         """c = -6 Phi_fp(H/S) H_flow at the points (H_flow = H on a rigid bushing)."""
-        H = 1.0 - eps_x * self.cos - eps_y * self.sin + self.relief
+        H = 1.0 - eps_x * self.cos - eps_y * self.sin
+        if self.relief is not None:
+            H = H + self.relief
         H_flow = H
         if W is not None:
             H = H + self.interpolation @ W
@@ -272,7 +274,7 @@ class RigidMidpointCoefficients:
         centroid = operator.centroid
         r = np.hypot(centroid[:, 0], centroid[:, 1])
         self.cos, self.sin = centroid[:, 0] / r, centroid[:, 1] / r
-        self.relief = 0.0 if relief is None else relief  # H_r at the midpoints
+        self.relief = relief  # H_r at the midpoints, or None
         self.params, self.roughness = params, roughness
         self.out = np.empty((len(r), 3 + len(self.integrals)))
 
@@ -280,7 +282,9 @@ class RigidMidpointCoefficients:
         """(cells, 3 + integrals): k_theta, k_z, f and the integrands at the midpoints."""
         p = self.params.get()
         cos, sin, rough, out = self.cos, self.sin, self.roughness, self.out
-        H = 1.0 - p["eps_x"] * cos - p["eps_y"] * sin + self.relief
+        H = 1.0 - p["eps_x"] * cos - p["eps_y"] * sin
+        if self.relief is not None:
+            H = H + self.relief
         dH_dtheta = p["eps_x"] * sin - p["eps_y"] * cos
         dH_dT = -p["deps_x"] * cos - p["deps_y"] * sin
         H3 = H**3
