@@ -303,55 +303,59 @@ def test_the_oil_from_its_data_sheet_gives_the_film_viscosity(tmp_path):
     assert load_case(write_case(tmp_path / "plain", "")).oil.viscosity == 0.010  # the reference default
 
 
-def test_the_edge_mesh_size_reaches_the_films_mesh(tmp_path, monkeypatch):
-    """``solver.mesh_edge_size`` is handed to the small end's film (its FilmSpec, through the film
-    factory, here a stand-in that records the spec), absent: None (the uniform mesh, every case as it was)."""
+class _StandIn(RuntimeError):
+    """Raised by the stand-in film factory once it has the spec: the joint's build stops there."""
+
+
+@pytest.fixture
+def film_spec(monkeypatch):
+    """``film_spec(case, big_end=False)``: the FilmSpec the case's mixed-fem small end (or big end) hands to
+    the film factory, recorded by a stand-in factory that then stops the build."""
     from mpi4py import MPI
 
     import solver.film.factory as factory
     from solver.dynamics.engine import engine_from_case
-    from solver.dynamics.joint import joint_from_case
+    from solver.dynamics.joint import big_end_joint_from_case, joint_from_case
 
     seen = []
 
     def record(spec, comm):
         seen.append(spec)
-        raise RuntimeError("stand-in")
+        raise _StandIn
 
     monkeypatch.setattr(factory, "make_film", record)
-    for text, expected in (("[solver]\nmesh_edge_size = 0.033\n", 0.033), ("", None)):
-        case = load_case(write_case(tmp_path / f"c{len(seen)}", text))
-        with pytest.raises(RuntimeError, match="stand-in"):
-            joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
-        assert seen[-1].mesh_edge_size == expected
+
+    def spec_of(case, big_end=False):
+        with pytest.raises(_StandIn):
+            if big_end:
+                big_end_joint_from_case(case, engine_from_case(case), MPI.COMM_SELF)
+            else:
+                joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
+        return seen[-1]
+
+    return spec_of
 
 
-def test_the_edge_relief_reaches_the_films_spec(tmp_path, monkeypatch):
+def test_the_edge_mesh_size_reaches_the_films_mesh(tmp_path, film_spec):
+    """``solver.mesh_edge_size`` is handed to the small end's film (its FilmSpec, through the film
+    factory), absent: None (the uniform mesh, every case as it was)."""
+    for k, (text, expected) in enumerate((("[solver]\nmesh_edge_size = 0.033\n", 0.033), ("", None))):
+        case = load_case(write_case(tmp_path / f"c{k}", text))
+        assert film_spec(case).mesh_edge_size == expected
+
+
+def test_the_edge_relief_reaches_the_films_spec(tmp_path, film_spec):
     """``small_end.edge_relief_*`` reach the small end's film as an EdgeRelief in SI units; absent (or a
     depth of 0), none: a cylindrical bore, every case as it was."""
-    from mpi4py import MPI
-
-    import solver.film.factory as factory
-    from solver.dynamics.engine import engine_from_case
-    from solver.dynamics.joint import joint_from_case
-
-    seen = []
-
-    def record(spec, comm):
-        seen.append(spec)
-        raise RuntimeError("stand-in")
-
-    monkeypatch.setattr(factory, "make_film", record)
     text = '[small_end]\nedge_relief_um = 4\nedge_relief_length_mm = 2.5\nedge_relief_shape = "linear"\n'
-    for text, expected in (
-        (text, (4e-6, 2.5e-3, "linear")),
-        ("", None),
-        ("[small_end]\nedge_relief_um = 0\n", None),
+    for k, (text, expected) in enumerate(
+        (
+            (text, (4e-6, 2.5e-3, "linear")),
+            ("", None),
+            ("[small_end]\nedge_relief_um = 0\n", None),
+        )
     ):
-        case = load_case(write_case(tmp_path / f"c{len(seen)}", text))
-        with pytest.raises(RuntimeError, match="stand-in"):
-            joint_from_case(case, engine_from_case(case), MPI.COMM_SELF, "mixed-fem")
-        relief = seen[-1].edge_relief
+        relief = film_spec(load_case(write_case(tmp_path / f"c{k}", text))).edge_relief
         if expected is None:
             assert relief is None
             continue
@@ -360,29 +364,14 @@ def test_the_edge_relief_reaches_the_films_spec(tmp_path, monkeypatch):
         assert relief.shape == expected[2]
 
 
-def test_the_big_end_s_edge_relief_reaches_its_film(tmp_path, monkeypatch):
+def test_the_big_end_s_edge_relief_reaches_its_film(tmp_path, film_spec):
     """``big_end.edge_relief_*`` reach the mixed-fem big end's film (with and without its supply hole, whose
     film is solved in the crankpin's frame: the relief depends on z only); the small end's stays None."""
-    from mpi4py import MPI
-
-    import solver.film.factory as factory
-    from solver.dynamics.engine import engine_from_case
-    from solver.dynamics.joint import big_end_joint_from_case
-
-    seen = []
-
-    def record(spec, comm):
-        seen.append(spec)
-        raise RuntimeError("stand-in")
-
-    monkeypatch.setattr(factory, "make_film", record)
     relief = '[big_end]\njoint = "mixed-fem"\nedge_relief_um = 5\nedge_relief_length_mm = 4\n'
     for k, text in enumerate((relief, relief + 'supply = "hole"\n[oil]\ninlet = "none"\n')):
         case = load_case(write_case(tmp_path / f"c{k}", text))
         assert case.small_end.edge_relief_depth == 0.0
-        with pytest.raises(RuntimeError, match="stand-in"):
-            big_end_joint_from_case(case, engine_from_case(case), MPI.COMM_SELF)
-        spec = seen[-1]
+        spec = film_spec(case, big_end=True)
         assert spec.joint == "big_end"
         assert spec.edge_relief.depth == pytest.approx(5e-6, rel=1e-12)
         assert spec.edge_relief.length == pytest.approx(4e-3, rel=1e-12)
