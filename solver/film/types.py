@@ -236,6 +236,7 @@ class FilmStats:
     failures: int = 0  # solves that did not converge
     jacobians: int = 0
     transport_fallbacks: int = 0  # JFO, limited transport: committed states whose step fell back to upwinding
+    euler_rate_steps: int = 0  # film with history: committed steps whose rate was implicit Euler (grown fast)
     solve_seconds: float = 0.0  # assembly, VI and functionals
     jacobian_seconds: float = 0.0  # sensitivities and their functionals
 

@@ -249,6 +249,9 @@ TIMING: dict[str, str] = {
     "rejected_steps": "rejected integrator step attempts (error test or Newton failure)",
     "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to "
     "upwinding (its limited solve did not converge)",
+    "euler_rate_steps": "film with history: committed steps more than BDF2_MAX_RATIO (2.4) times the one "
+    "before, over which the film's rate was implicit Euler, not BDF2 (the integrator limits its step's "
+    "growth so that this stays 0 after a cycle's first step)",
     "film_solve_s": "seconds in film solves",
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",

@@ -13,6 +13,7 @@ import pytest
 from solver.film.bearing import Bearing, FilmModel, Kinematics
 from solver.film.bushings import WinklerLayer
 from solver.film.coupled_reynolds import ReynoldsRows
+from solver.film.history import FilmHistory
 from solver.film.surface import Surface
 
 R, C, MU, OMEGA = 0.01, 10e-6, 0.01, 200.0
@@ -288,6 +289,29 @@ def test_a_state_solved_again_at_its_commit_time_keeps_its_rate():
 
 
 @pytest.mark.serial
+def test_history_reports_a_step_whose_rate_fell_to_implicit_euler():
+    """FilmHistory.commit says when the step ending at a new time was more than BDF2_MAX_RATIO times the
+    one before (the rate over it was implicit Euler): never for the first two commits, nor for a commit
+    that replaces one at the same time (an output after its step), at 2.4 exactly not, at 2.5 yes."""
+    history = FilmHistory()
+    state = np.zeros(3)
+    assert not history.commit(state, 0.0)
+    assert not history.commit(state, 1.0)  # one step before it: Euler by necessity, not counted
+    assert history.last_step() == 1.0
+    assert not history.commit(state, 3.4)  # ratio 2.4
+    assert history.commit(state, 3.4 + 2.5 * 2.4)  # ratio 2.5
+    assert not history.commit(state, 3.4 + 2.5 * 2.4)  # the same time again: replaced, not a step
+    assert history.last_step() == pytest.approx(6.0)
+    # steps of 2.4 x the last from an engine run (the integrator's growth limit): the ratio of the time
+    # differences is 2.4000000000000004 by rounding, and the rate stays BDF2
+    history = FilmHistory()
+    for time_s in (1.962741964299817e-06, 2.997425456907452e-06, 5.181103507613662e-06):
+        history.commit(state, time_s)
+    assert not history.commit(state, 1.0421930829308567e-05)
+    inverse_step, _ = history.rate(1.0421930829308567e-05 + 2.4 * history.last_step(), lambda t, x: x)
+    assert inverse_step != pytest.approx(1.0 / (2.4 * history.last_step()))  # not implicit Euler's 1/h
+
+
 def test_deformation_rate_is_second_order_in_the_step():
     """A Winkler film under a prescribed squeeze, eps = 0.8 + 0.15 sin(2 pi t / T) with T = 2 ms (the
     deformation lags the load: the rate term matters), committed after every step of N over T/4: the
