@@ -28,6 +28,8 @@ class FilmHistory:
     #: a ratio is compared with BDF2_MAX_RATIO to this relative slack: the step times' rounding (a step
     #: of exactly BDF2_MAX_RATIO times the last, the integrator's growth limit, stays BDF2)
     RATIO_SLACK = 1e-9
+    #: a commit within this relative distance of a committed time replaces that state (the same instant)
+    TIME_ROUNDING = 1e-12
 
     def __init__(self) -> None:
         self._entries: list[tuple[float, np.ndarray]] = []
@@ -39,7 +41,9 @@ class FilmHistory:
         states at or after ``time_s`` are dropped (a history replayed from an earlier time). Returns
         True when the step that ends here (a new time after two committed states) was more than
         BDF2_MAX_RATIO times the one before: the rate over it was implicit Euler, not BDF2."""
-        earlier = [entry for entry in self._entries if entry[0] < time_s]
+        # (a time within rounding of a committed one is that one: e.g. an older checkpoint's film moved
+        # back by whole cycles, 1e-17 s off the cycle's end)
+        earlier = [entry for entry in self._entries if entry[0] < time_s - self.TIME_ROUNDING * abs(time_s)]
         new = len(earlier) == len(self._entries)
         self._entries = [*earlier[len(earlier) - (self.SIZE - 1) :], (time_s, state.copy())]
         if not new or len(earlier) < 2:

@@ -308,6 +308,9 @@ def test_history_reports_a_step_whose_rate_fell_to_implicit_euler():
     for time_s in (1.962741964299817e-06, 2.997425456907452e-06, 5.181103507613662e-06):
         history.commit(state, time_s)
     assert not history.commit(state, 1.0421930829308567e-05)
+    # a time a rounding off the last committed one is that instant: replaced, not a step of 1e-21 s
+    assert not history.commit(state, 1.0421930829308567e-05 * (1 - 1e-15))
+    assert history.last_step() == pytest.approx(1.0421930829308567e-05 - 5.181103507613662e-06, rel=1e-9)
     inverse_step, _ = history.rate(1.0421930829308567e-05 + 2.4 * history.last_step(), lambda t, x: x)
     assert inverse_step != pytest.approx(1.0 / (2.4 * history.last_step()))  # not implicit Euler's 1/h
 
