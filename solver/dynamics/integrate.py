@@ -260,14 +260,8 @@ class ESDIRK32:
     The error estimate ``h sum (b_j - b^_j) F_j`` is filtered by ``(I - h gamma J)^-1`` (Shampine's
     filter, as in Hairer & Wanner's RADAU5) so that stiff components do not inflate it; the stage
     derivatives are recovered from the stage equations (``F = (Y - base)/(h gamma)``), not by another
-    force evaluation. Step size: ``h_new = h min(g, max(0.2, 0.9 err^(-1/3)))``, the growth limit ``g``
-    ``MAX_GROWTH`` (5) or, for a system with a film history, ``max_growth`` below 1 + sqrt(2): that
-    history's rate is variable-step BDF2 through the accepted steps' ends, second order only while a
-    step is at most that many times the last (solver.film.history.FilmHistory.BDF2_MAX_RATIO), and
-    its error is not in the estimate here (a step grown 5 x after a rejection took that rate by implicit
-    Euler: at rtol 1e-8 the elastic JFO case's friction moved 1-2 % from it). ``step_before``, the
-    step that ended at t0 (a history carried across a new integrator), bounds the first step alike.
-    Dense output: cubic Hermite between the step ends.
+    force evaluation. Step size: ``h_new = h min(5, max(0.2, 0.9 err^(-1/3)))``. Dense output: cubic
+    Hermite between the step ends.
 
     The interface follows scipy's OdeSolver where :class:`Stepper` uses it (``t``, ``y``, ``f``,
     ``t_bound``, ``status``, ``step()``, ``dense_output()``, ``fun``, ``nlu``); ``t_bound`` may be None at
@@ -302,8 +296,6 @@ class ESDIRK32:
     )
     C = A.sum(axis=1)
     MAX_NEWTON_ITERATIONS = 12
-    #: the largest growth of the step from one accepted step to the next (by default)
-    MAX_GROWTH = 5.0
     #: a full Newton iteration whose increment grows by this factor (or grows twice) diverges
     DIVERGENCE_RATE = 4.0
     NEWTON_FAILURE_FACTOR = 0.5  # step reduction after a Newton failure
@@ -325,15 +317,8 @@ class ESDIRK32:
         first_step: float | None = None,
         jacobian_reuse: bool = False,
         stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
-        max_growth: float | None = None,
-        step_before: float | None = None,
     ):
         self.system = system
-        self.max_growth = self.MAX_GROWTH if max_growth is None else float(max_growth)
-        if not 1.0 < self.max_growth <= self.MAX_GROWTH:
-            raise ValueError(f"max_growth = {max_growth!r} (allowed: (1, {self.MAX_GROWTH:g}])")
-        #: s, the step that ended at t0: the first step is at most max_growth times it (None: no bound)
-        self._step_before = step_before
         #: values at a force evaluation (t, y, qdd, lambda), integrated by the stage quadrature
         self.stage_values = stage_values
         self.stage_integral: np.ndarray | None = None  # sum over the accepted steps of h sum_j b_j v_j
@@ -460,8 +445,6 @@ class ESDIRK32:
         t, y, f0 = self.t, self.y, self.f
         if self.h is None:
             self.h = self._initial_step()
-        if self._step_before is not None:
-            self.h, self._step_before = min(self.h, self.max_growth * self._step_before), None
         h = min(self.h, self.max_step, self.t_bound - t)
         # the constraint part of the Jacobian, differenced once per step at the latest consistent force
         # evaluation (the last Newton iterate of the previous step, within the Newton tolerance of y)
@@ -510,7 +493,7 @@ class ESDIRK32:
             error = scipy.linalg.lu_solve(lu, error, check_finite=False)
             scale = self.atol + self.rtol * np.maximum(np.abs(y), np.abs(y_new))
             error_norm = float(np.sqrt(np.mean((error / scale) ** 2)))
-            factor = 0.9 * error_norm ** (-1.0 / 3.0) if error_norm > 0.0 else self.max_growth
+            factor = 0.9 * error_norm ** (-1.0 / 3.0) if error_norm > 0.0 else 5.0
             if error_norm <= 1.0:
                 break
             h *= max(0.2, factor)
@@ -518,8 +501,7 @@ class ESDIRK32:
             self.n_rejected += 1
         self._full_newton = False
         self._dense = _HermiteOutput(t, y, f0, t + h, y_new, stages[3])
-        # (h is the step taken, a step cut short at t_bound included: the growth is from it)
-        self.h = h * min(1.0 if rejected else self.max_growth, max(0.2, factor))
+        self.h = h * min(1.0 if rejected else 5.0, max(0.2, factor))
         self.t = t + h if self.t_bound - (t + h) > 1e-14 * abs(self.t_bound) else self.t_bound
         self.y, self.f = y_new, stages[3]
         self._anchor = self.system.last_evaluation
@@ -577,10 +559,6 @@ class Stepper:
         on_step: called with the time after every accepted step (:func:`integrate`).
         stage_values: ESDIRK32: values at its force evaluations integrated by its stage quadrature
             (:func:`integrate`); ``stage_integral`` holds their integral since the last advance.
-        max_growth: ESDIRK32: the largest growth of the step from one accepted step to the next (default
-            ``ESDIRK32.MAX_GROWTH``; a film history's: below 1 + sqrt(2), see :class:`ESDIRK32`).
-        step_before: s, ESDIRK32: the step that ended at t0 (a film history's last interval): the first
-            step is at most ``max_growth`` times it.
     """
 
     def __init__(
@@ -601,14 +579,10 @@ class Stepper:
         jacobian_reuse: bool = False,
         on_step: Callable[[float], None] | None = None,
         stage_values: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
-        max_growth: float | None = None,
-        step_before: float | None = None,
     ):
         _check_method(method, stage_values)
         if t_bound is None and method != "ESDIRK32":
             raise ValueError(f"method = {method!r} needs t_bound")
-        if (max_growth is not None or step_before is not None) and method != "ESDIRK32":
-            raise ValueError(f"max_growth and step_before need method = 'ESDIRK32' (got {method!r})")
         self.mechanism, self.method, self.on_step = mechanism, method, on_step
         self.system = OdeSystem(mechanism, alpha, beta)
         self.steps = 0
@@ -626,8 +600,6 @@ class Stepper:
                 first_step=first_step,
                 jacobian_reuse=jacobian_reuse,
                 stage_values=stage_values,
-                max_growth=max_growth,
-                step_before=step_before,
             )
         else:
             options = {"rtol": rtol, "atol": atol, "max_step": max_step}

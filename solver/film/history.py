@@ -25,11 +25,6 @@ class FilmHistory:
     #: the largest step ratio h / h_previous with which the rate is second order (variable-step BDF2 is
     #: zero-stable below 1 + sqrt(2)); above it (a step grown fast) the rate is implicit Euler
     BDF2_MAX_RATIO = 2.4
-    #: a ratio is compared with BDF2_MAX_RATIO to this relative slack: the step times' rounding (a step
-    #: of exactly BDF2_MAX_RATIO times the last, the integrator's growth limit, stays BDF2)
-    RATIO_SLACK = 1e-9
-    #: a commit within this relative distance of a committed time replaces that state (the same instant)
-    TIME_ROUNDING = 1e-12
 
     def __init__(self) -> None:
         self._entries: list[tuple[float, np.ndarray]] = []
@@ -41,21 +36,13 @@ class FilmHistory:
         states at or after ``time_s`` are dropped (a history replayed from an earlier time). Returns
         True when the step that ends here (a new time after two committed states) was more than
         BDF2_MAX_RATIO times the one before: the rate over it was implicit Euler, not BDF2."""
-        # (a time within rounding of a committed one is that one: e.g. an older checkpoint's film moved
-        # back by whole cycles, 1e-17 s off the cycle's end)
-        earlier = [entry for entry in self._entries if entry[0] < time_s - self.TIME_ROUNDING * abs(time_s)]
+        earlier = [entry for entry in self._entries if entry[0] < time_s]
         new = len(earlier) == len(self._entries)
         self._entries = [*earlier[len(earlier) - (self.SIZE - 1) :], (time_s, state.copy())]
         if not new or len(earlier) < 2:
             return False
         (t_m, _), (t_n, _) = earlier[-2:]
-        return (time_s - t_n) > self.BDF2_MAX_RATIO * (1 + self.RATIO_SLACK) * (t_n - t_m)
-
-    def last_step(self) -> float | None:
-        """s, the interval between the two latest committed states (None with fewer than two)."""
-        if len(self._entries) < 2:
-            return None
-        return self._entries[-1][0] - self._entries[-2][0]
+        return (time_s - t_n) / (t_n - t_m) > self.BDF2_MAX_RATIO
 
     def committed(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first, copies (for a checkpoint: committed again in that
@@ -91,7 +78,7 @@ class FilmHistory:
         if len(history) == 2:
             t_m, x_m = history[0]
             w = h / (t_n - t_m)
-            if w <= self.BDF2_MAX_RATIO * (1 + self.RATIO_SLACK):
+            if w <= self.BDF2_MAX_RATIO:
                 inverse_step = (1 + 2 * w) / ((1 + w) * h)
                 reference = ((1 + w) * reference - w**2 / (1 + w) * field(t_m, x_m)) / (inverse_step * h)
         return inverse_step, reference

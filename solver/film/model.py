@@ -173,11 +173,6 @@ class Film:
         if self.history.commit(state, time_s):
             self.stats.euler_rate_steps += 1
 
-    def last_committed_step(self) -> float | None:
-        """s, the interval between the two latest committed states (None: fewer than two, or no
-        history)."""
-        return self.history.last_step() if self.has_history else None
-
     def start_from(self, state: np.ndarray) -> None:
         """Make ``state`` (from history_state) the next solve's warm start."""
         self.solver.start_from(state)

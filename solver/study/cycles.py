@@ -36,7 +36,6 @@ import numpy as np
 from tqdm import tqdm
 
 from solver.dynamics.integrate import IntegrationError, Stepper
-from solver.film.history import FilmHistory
 from solver.study import io
 from solver.study.energy import STAGE_COLUMNS, EnergyAudit, input_work
 from solver.study.film_temperature import set_film_temperature
@@ -170,10 +169,6 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         jacobian_reuse=True,
         on_step=step_accepted,
         stage_values=audit.stage_powers,
-        # a film history's rate is BDF2 through the steps' ends: the steps grow no faster than it allows,
-        # from the history's last interval on (solver.dynamics.integrate.ESDIRK32)
-        max_growth=FilmHistory.BDF2_MAX_RATIO if history or big_history else None,
-        step_before=_last_committed_step(run, history, big_history),
     )
     q, t = q0, t0
     for k in range(1, n_out + 1):
@@ -219,17 +214,6 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
                 timing[name] += value
         timing["multibody_s"] = wall - timing["film_solve_s"] - timing["film_jacobian_s"]
     return CycleOutput(columns, float(np.nanmin(columns[prefix + "h_min"])), timing, prefix), (t, q, qd)
-
-
-def _last_committed_step(run, history: bool, big_history: bool) -> float | None:
-    """s, the shortest of the films' last committed intervals before the cycle's start (None: none)."""
-    steps = []
-    if history:
-        steps.append(run.model.last_committed_step())
-    if big_history:
-        steps.append(run.big_model.last_committed_step())
-    steps = [step for step in steps if step is not None and step > 0.0]
-    return min(steps) if steps else None
 
 
 def describe_timing(timing: dict[str, float]) -> str:

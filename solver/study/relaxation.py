@@ -115,8 +115,5 @@ def relax(model, film, trace, history, tolerance: float, max_cycles: int, mix: b
                     model.commit_history(film.admissible(state + shift), time_s)
                 start = model.committed_history()[-1][1]
                 model.start_from(start)
-    # moved back by the film cycles replayed, the last exactly to the cycle's end (a moved time a rounding
-    # off it would be a step of 1e-17 s before the next cycle's start)
-    replayed = model.committed_history()
-    moved = [(history[-1][0] + (t - replayed[-1][0]), x) for t, x in replayed]
+    moved = [(t - cycles * period, x) for t, x in model.committed_history()]
     return Relaxation(moved, cycles, changes, solves, time.perf_counter() - clock)

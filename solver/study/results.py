@@ -250,8 +250,8 @@ TIMING: dict[str, str] = {
     "transport_fallbacks": "JFO film with the limited transport: committed states whose step fell back to "
     "upwinding (its limited solve did not converge)",
     "euler_rate_steps": "film with history: committed steps more than BDF2_MAX_RATIO (2.4) times the one "
-    "before, over which the film's rate was implicit Euler, not BDF2 (the integrator limits its step's "
-    "growth so that this stays 0 after a cycle's first step)",
+    "before (the integrator grows its step up to 5 times, after a rejection or a step cut short at an "
+    "output), over which the film's rate was implicit Euler, not BDF2 (solver.film.history)",
     "film_solve_s": "seconds in film solves",
     "film_jacobian_s": "seconds in film Jacobians",
     "multibody_s": "seconds in the multibody system, integrator and Python (the rest of the cycle)",

