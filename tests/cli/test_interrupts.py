@@ -1,12 +1,13 @@
 """Interrupted ``run`` and ``batch``: one line, exit 130, what finished kept, a rerun resumes.
 
-The commands run in subprocesses on the analytic short-bearing joint (one 720 deg cycle takes
-~10-25 s here) and are interrupted in their second cycle, once the first cycle's checkpoint is on
-disk: ``run`` with SIGINT (Ctrl-C), a one-rank ``batch`` with SIGTERM, and ``mpirun -n 2 ... batch``
-with SIGINT to mpirun, which sends SIGTERM to the ranks (and SIGKILL a second later). These tests
-start processes (and mpirun) themselves, so they are serial. The reference for "resumes" is the run's
-own log ("resuming after cycle 1") and the cycle count; for the cumulative wall time, the first cycle's
-own wall time (a lower bound of the first invocation's part) and the test's clock (an upper bound).
+The commands run in subprocesses on the analytic short-bearing joint (one 720 deg cycle takes ~2 s on a
+fast machine, 10-25 s on a slow one) and are interrupted in their second cycle (INTO_CYCLE_2), once the
+first cycle's checkpoint is on disk: ``run`` with SIGINT (Ctrl-C), a one-rank ``batch`` with SIGTERM, and
+``mpirun -n 2 ... batch`` with SIGINT to mpirun, which sends SIGTERM to the ranks (and SIGKILL a second
+later). These tests start processes (and mpirun) themselves, so they are serial. The reference for
+"resumes" is the run's own log ("resuming after cycle 1") and the cycle count; for the cumulative wall
+time, the first cycle's own wall time (a lower bound of the first invocation's part) and the test's
+clock (an upper bound).
 """
 
 from __future__ import annotations
@@ -29,6 +30,9 @@ from tests.study.test_batch import mpi_env
 
 SHORT = '[solver]\njoint = "short-bearing"\nmax_cycles = 3\nstep_deg = 9\n'
 IDEAL = '[solver]\njoint = "ideal"\nstep_deg = 9\n'
+#: s after the first cycle's checkpoint appeared: early in cycle 2 on a fast machine (a cycle ~2 s; 2 s
+#: here had let the run finish its cycle 2 and write its results) and on a slow one
+INTO_CYCLE_2 = 0.3
 
 
 def case(root: Path, name: str, text: str) -> Path:
@@ -75,7 +79,7 @@ def test_ctrl_c_on_run_prints_where_it_stopped_and_a_rerun_resumes(tmp_path):
     process = start([sys.executable, "-m", "solver", "run", str(sb), "--quiet"])
     wait_for([checkpoint], process)
     seen = time.monotonic() - launched
-    time.sleep(2.0)  # into cycle 2 (or still at the end of cycle 1: both are reported)
+    time.sleep(INTO_CYCLE_2)  # into cycle 2 (or still at the end of cycle 1: both are reported)
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
@@ -121,7 +125,7 @@ def test_sigterm_on_a_one_rank_batch_writes_the_status_and_a_rerun_resumes(tmp_p
     command = [sys.executable, "-m", "solver", "batch", *map(str, cases)]
     process = start(command)
     wait_for([cases[0] / "results" / "case_status.json", cases[1] / "results" / "checkpoint.npz"], process)
-    time.sleep(2.0)  # into cycle 2 (or still at the end of cycle 1: both are reported)
+    time.sleep(INTO_CYCLE_2)  # into cycle 2 (or still at the end of cycle 1: both are reported)
     process.send_signal(signal.SIGTERM)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
@@ -179,7 +183,7 @@ def test_ctrl_c_on_mpirun_batch_writes_the_status_and_a_rerun_resumes(tmp_path):
         start_new_session=True,
     )
     wait_for([c / "results" / "checkpoint.npz" for c in cases], process)
-    time.sleep(2.0)  # into cycle 2 (or still at the end of cycle 1: both are reported)
+    time.sleep(INTO_CYCLE_2)  # into cycle 2 (or still at the end of cycle 1: both are reported)
     os.kill(process.pid, signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode != 0, stderr
