@@ -42,7 +42,11 @@ class FilmHistory:
         if not new or len(earlier) < 2:
             return False
         (t_m, _), (t_n, _) = earlier[-2:]
-        return (time_s - t_n) / (t_n - t_m) > self.BDF2_MAX_RATIO
+        return not self._second_order((time_s - t_n) / (t_n - t_m))
+
+    def _second_order(self, ratio: float) -> bool:
+        """A step ``ratio`` times the one before takes the BDF2 rate (else implicit Euler)."""
+        return ratio <= self.BDF2_MAX_RATIO
 
     def committed(self) -> list[tuple[float, np.ndarray]]:
         """The committed states kept, oldest first, copies (for a checkpoint: committed again in that
@@ -78,7 +82,7 @@ class FilmHistory:
         if len(history) == 2:
             t_m, x_m = history[0]
             w = h / (t_n - t_m)
-            if w <= self.BDF2_MAX_RATIO:
+            if self._second_order(w):
                 inverse_step = (1 + 2 * w) / ((1 + w) * h)
                 reference = ((1 + w) * reference - w**2 / (1 + w) * field(t_m, x_m)) / (inverse_step * h)
         return inverse_step, reference

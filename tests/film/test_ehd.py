@@ -288,7 +288,6 @@ def test_a_state_solved_again_at_its_commit_time_keeps_its_rate():
         assert model.solve(kin(0.9), 1e-5).load == pytest.approx(stepped.load, rel=1e-8)
 
 
-@pytest.mark.serial
 def test_history_reports_a_step_whose_rate_fell_to_implicit_euler():
     """FilmHistory.commit says when the step ending at a new time was more than BDF2_MAX_RATIO times the
     one before (the rate over it was implicit Euler, as ``rate`` takes it): never for the first two
@@ -305,6 +304,7 @@ def test_history_reports_a_step_whose_rate_fell_to_implicit_euler():
     assert not history.commit(state, 3.25 + 2.5 * 2.25)  # the same time again: replaced, not a step
 
 
+@pytest.mark.serial
 def test_deformation_rate_is_second_order_in_the_step():
     """A Winkler film under a prescribed squeeze, eps = 0.8 + 0.15 sin(2 pi t / T) with T = 2 ms (the
     deformation lags the load: the rate term matters), committed after every step of N over T/4: the
