@@ -1125,6 +1125,19 @@ FIELDS: tuple[FieldSpec, ...] = (
         unit="deg",
         doc="crank-angle step of the outputs; 720 / step_deg must be an integer",
     ),
+    _f(
+        "solver",
+        "max_step_deg",
+        "max_step",
+        0.0,
+        DEG,
+        0.0,
+        10.0,
+        closed=True,
+        unit="deg",
+        doc="the time integrator's largest step, at most step_deg (0: step_deg, the outputs bound the "
+        "steps); the coupled answers' time error is third order in it (docs/verification.md)",
+    ),
     FieldSpec(
         "solver",
         "joint",
@@ -1669,6 +1682,7 @@ class Solver:
     """Numerical settings of the coupled run (SI; angles in rad)."""
 
     step: float = _field("solver", "step")  # rad, output crank-angle step
+    max_step: float = _field("solver", "max_step")  # rad, the integrator's largest step (0: step)
     joint: str = "mixed-fem"
     mesh_size: float | None = _field(
         "solver", "mesh_size"
@@ -1690,6 +1704,14 @@ class Solver:
         if abs(count - round(count)) > 1e-9 * count:
             allowed = "(0, 10) with 720 / step_deg an integer"
             raise out_of_range("solver.step_deg", f"{self.step / DEG:g}", allowed)
+        if self.max_step > self.step * (1 + 1e-12):
+            allowed = f"[0, step_deg = {self.step / DEG:g}] (0: step_deg)"
+            raise out_of_range("solver.max_step_deg", f"{self.max_step / DEG:g}", allowed)
+
+    @property
+    def integrator_step(self) -> float:
+        """rad, the integrator's largest crank-angle step: ``max_step``, or the output step if 0."""
+        return self.max_step if self.max_step > 0 else self.step
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

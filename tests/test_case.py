@@ -177,6 +177,11 @@ def test_pressure_file_is_resolved_against_the_case_directory(tmp_path):
         ("[surface]\nnu_pin = 0.5\n", r"^surface.nu_pin = 0.5 is out of range \(allowed: \(-1, 0.5\)\)$"),
         ("[oil]\nviscosity_Pa_s = -0.01\n", r"^oil.viscosity_Pa_s = -0.01 is out of range \(allowed: > 0\)$"),
         ("[solver]\nstep_deg = 0.7\n", r"^solver.step_deg = 0.7 is out of range"),
+        (
+            "[solver]\nstep_deg = 0.5\nmax_step_deg = 1\n",
+            r"^solver.max_step_deg = 1 is out of range \(allowed: \[0, step_deg = 0.5\] \(0: step_deg\)\)$",
+        ),
+        ("[solver]\nmax_step_deg = -1\n", r"^solver.max_step_deg = -1 is out of range"),
         ('[solver]\njoint = "glue"\n', r"^solver.joint = 'glue' is out of range \(allowed: 'mixed-fem'"),
         (
             "[solver]\nmax_cycles = 2.5\n",

@@ -170,10 +170,16 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         on_step=step_accepted,
         stage_values=audit.stage_powers,
     )
+    # the integrator's largest step (solver.max_step_deg): each output interval in equal parts, the
+    # steps ending at their ends as at the outputs (without an output's projection and commit)
+    parts = max(1, math.ceil(run.case.solver.step / run.case.solver.integrator_step - 1e-9))
     q, t = q0, t0
     for k in range(1, n_out + 1):
         t = float(times[k])
         try:
+            for j in range(1, parts):
+                angle = np.radians(angles[k - 1] + j * run.step_deg / parts) + 4 * math.pi * cycle
+                stepper.advance_to(float(engine.crank_motion.time(angle)))
             q, arrival = stepper.advance_to(t)
         except IntegrationError as err:
             raise SimulationError(
