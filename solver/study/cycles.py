@@ -176,10 +176,12 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     q, t = q0, t0
     for k in range(1, n_out + 1):
         t = float(times[k])
+        interval_work = np.zeros(len(STAGE_COLUMNS))  # the stages' work over the output interval
         try:
             for j in range(1, parts):
                 angle = np.radians(angles[k - 1] + j * run.step_deg / parts) + 4 * math.pi * cycle
                 stepper.advance_to(float(engine.crank_motion.time(angle)))
+                interval_work += stepper.stage_integral  # (advance_to starts the integral anew)
             q, arrival = stepper.advance_to(t)
         except IntegrationError as err:
             raise SimulationError(
@@ -192,7 +194,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         output_accepted(t)
         rows.append(row)
         # the work along the stages, and the kinetic energy the velocities' projection adds (drift)
-        work += stepper.stage_integral
+        work += interval_work + stepper.stage_integral
         work[1] += audit.projection_energy(q, arrival, qd)
         energies.append(work.copy())
         if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
