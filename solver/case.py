@@ -1709,9 +1709,10 @@ class Solver:
             raise out_of_range("solver.max_step_deg", f"{self.max_step / DEG:g}", allowed)
 
     @property
-    def integrator_step(self) -> float:
-        """rad, the integrator's largest crank-angle step: ``max_step``, or the output step if 0."""
-        return self.max_step if self.max_step > 0 else self.step
+    def steps_per_output(self) -> int:
+        """The equal integrator intervals an output interval is divided into, each at most ``max_step``
+        (1 when ``max_step`` is 0: the outputs bound the steps)."""
+        return max(1, math.ceil(self.step / self.max_step - 1e-9)) if self.max_step > 0 else 1
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -113,8 +113,13 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
     film_before = [m.stats.copy() for m in models]
     n_out = int(round(720.0 / run.step_deg))
     angles = np.linspace(0.0, 720.0, n_out + 1)
-    times = np.asarray(engine.crank_motion.time(np.radians(angles) + 4 * math.pi * cycle), dtype=float)
-    times[0] = t0
+    # the integrator's interval ends: each output interval in equal parts (solver.max_step_deg), every
+    # parts-th one an output; the steps end there as at the outputs (without an output's projection)
+    parts = run.case.solver.steps_per_output
+    fine = np.radians(np.linspace(0.0, 720.0, n_out * parts + 1)) + 4 * math.pi * cycle
+    ends = np.asarray(engine.crank_motion.time(fine), dtype=float)
+    ends[0] = t0
+    times = ends[::parts]
     audit = EnergyAudit(run.em, engine.gravity)
     outputs = StateOutputs(
         run.em,
@@ -170,18 +175,13 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         on_step=step_accepted,
         stage_values=audit.stage_powers,
     )
-    # the integrator's largest step (solver.max_step_deg): each output interval in equal parts, the
-    # steps ending at their ends as at the outputs (without an output's projection and commit)
-    parts = max(1, math.ceil(run.case.solver.step / run.case.solver.integrator_step - 1e-9))
     q, t = q0, t0
     for k in range(1, n_out + 1):
         t = float(times[k])
-        interval_work = np.zeros(len(STAGE_COLUMNS))  # the stages' work over the output interval
         try:
-            for j in range(1, parts):
-                angle = np.radians(angles[k - 1] + j * run.step_deg / parts) + 4 * math.pi * cycle
-                stepper.advance_to(float(engine.crank_motion.time(angle)))
-                interval_work += stepper.stage_integral  # (advance_to starts the integral anew)
+            for end in ends[(k - 1) * parts + 1 : k * parts]:
+                stepper.advance_to(float(end))
+                work += stepper.stage_integral  # the stages' work (advance_to starts its integral anew)
             q, arrival = stepper.advance_to(t)
         except IntegrationError as err:
             raise SimulationError(
@@ -194,7 +194,7 @@ def integrate_cycle(run, cycle: int, t0: float, q0, qd0, progress=None):
         output_accepted(t)
         rows.append(row)
         # the work along the stages, and the kinetic energy the velocities' projection adds (drift)
-        work += interval_work + stepper.stage_integral
+        work += stepper.stage_integral
         work[1] += audit.projection_energy(q, arrival, qd)
         energies.append(work.copy())
         if progress is not None and (angles[k] % CHUNK_DEG < 1e-9 or k == n_out):
