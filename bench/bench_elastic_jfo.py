@@ -3,15 +3,16 @@
     taskset -c 1 .venv/bin/python3 bench/bench_elastic_jfo.py [--cycles N] [--rounds K] [--code DIR ...]
 
 Runs ``cases/reference-2000rpm-ehd-jfo`` (FE eye, its modes as the case chooses them, Barus oil, JFO) and
-``cases/reference-2000rpm-jfo`` with the elastic case's film mesh, integrator tolerance and output step (its
-``mesh_size``, ``mesh_edge_size``, ``rtol`` and ``step_deg`` keys; the other keys as shipped), each for
-``--cycles`` integrated cycles from its ideal-joint start, through the command line only (``python3 -m solver
-run CASE --json``), so the same script measures any version of the package (``--code``: checkouts whose
-``solver`` runs, in turn; default this one). Per run it prints the last cycle's record (results attributes
-``timing.*``): the film solves, their Newton iterations, the seconds in them and per solve, the Jacobians, the
-cycle's wall time, and min h_min and the mean friction power of the run; then the elastic / rigid ratios of
-the time per film solve and per cycle, round by round (the runs of a round one after the other). The machine's
-speed drifts: compare only the runs of one sitting, pinned to one core (``taskset``).
+``cases/reference-2000rpm-jfo`` with the elastic case's film mesh, integrator tolerance, output step and
+largest step (its ``mesh_size``, ``mesh_edge_size``, ``rtol``, ``step_deg`` and ``max_step_deg`` keys; the
+other keys as shipped), each for ``--cycles`` integrated cycles from its ideal-joint start, through the
+command line only (``python3 -m solver run CASE --json``), so the same script measures any version of the
+package (``--code``: checkouts whose ``solver`` runs, in turn; default this one). Per run it prints the last
+cycle's record (results attributes ``timing.*``): the film solves, their Newton iterations, the seconds in
+them and per solve, the Jacobians, the cycle's wall time, and min h_min and the mean friction power of the
+run; then the elastic / rigid ratios of the time per film solve and per cycle, round by round (the runs of a
+round one after the other). The machine's speed drifts: compare only the runs of one sitting, pinned to one
+core (``taskset``).
 """
 
 from __future__ import annotations
@@ -52,13 +53,13 @@ def _key(text: str, key: str) -> str | None:
 
 def cases(work: Path, cycles: int) -> dict[str, Path]:
     """Copies of the two cases: ``cycles`` cycles, the rigid one at the elastic one's mesh (its grading too),
-    rtol and output step."""
+    rtol, output step and largest step."""
     elastic_text = (ROOT / "cases" / ELASTIC / "case.toml").read_text()
     out = {}
     for kind, name in (("elastic", ELASTIC), ("rigid", RIGID)):
         text = (ROOT / "cases" / name / "case.toml").read_text()
         if kind == "rigid":
-            for key in ("mesh_size", "mesh_edge_size", "rtol", "step_deg"):
+            for key in ("mesh_size", "mesh_edge_size", "rtol", "step_deg", "max_step_deg"):
                 text = _set(text, key, _key(elastic_text, key))
         text = _set(text, "max_cycles", str(cycles))
         case = work / kind / name

@@ -1,8 +1,8 @@
 """Verification study of the coupled engine (too long for CI; its table goes into the README).
 
     .venv/bin/python3 bench/verify_engine.py [--case DIR] [--base-mesh H] [--base-step DEG]
-        [--base-rtol R] [--max-cycles N] [--periodic-tolerance T] [--periodic-friction-tolerance F]
-        [--only VARIANT ...] [--keep]
+        [--base-max-step DEG] [--base-rtol R] [--max-cycles N] [--periodic-tolerance T]
+        [--periodic-friction-tolerance F] [--only VARIANT ...] [--keep]
 
 Runs the reference case (or ``--case``, e.g. cases/reference-2000rpm-ehd: its keys but the solver's)
 with the mixed finite-element film at a base resolution and refined
@@ -92,6 +92,13 @@ def main() -> None:
     parser.add_argument("--case", type=Path, default=REFERENCE, help="the case whose keys the variants take")
     parser.add_argument("--base-mesh", type=float, default=0.15)
     parser.add_argument("--base-step", type=float, default=5.0)
+    parser.add_argument(
+        "--base-max-step",
+        type=float,
+        default=None,
+        help="solver.max_step_deg of the base (the integrator's largest step below the output step; default: "
+        "the output step); 'output step / 2' halves both, 'largest step / 2' halves this one",
+    )
     parser.add_argument("--base-rtol", type=float, default=1e-5)
     parser.add_argument(
         "--base-edge",
@@ -142,14 +149,18 @@ def main() -> None:
         base["periodic_friction_tolerance"] = args.periodic_friction_tolerance
     if args.base_edge is not None:
         base["mesh_edge_size"] = args.base_edge
+    largest = args.base_step if args.base_max_step is None else args.base_max_step
+    if args.base_max_step is not None:
+        base["max_step_deg"] = args.base_max_step
     modes = "" if args.base_modes is None else f"[small_end]\ncompliance_modes = {args.base_modes}\n"
     variants = {
         "base": (base, modes),
         "mesh / 1.5": ({**base, "mesh_size": round(args.base_mesh / 1.5, 4)}, modes),
-        "output step / 2": ({**base, "step_deg": args.base_step / 2}, modes),
+        # the outputs and the integrator's largest step halved together
+        "output step / 2": ({**base, "step_deg": args.base_step / 2, "max_step_deg": largest / 2}, modes),
         # the integrator's largest step halved at the same outputs: the time refinement itself (the error
         # test does not bound the steps below the outputs' bound: docs/verification.md)
-        "largest step / 2": ({**base, "max_step_deg": args.base_step / 2}, modes),
+        "largest step / 2": ({**base, "max_step_deg": largest / 2}, modes),
         "rtol / 10": ({**base, "rtol": args.base_rtol / 10}, modes),
         "viscosity x 2": (base, "[oil]\nviscosity_Pa_s = 0.020\n"),
         "roughness x 1.5": (base, "[surface]\nsigma_pin_um = 0.15\nsigma_bushing_um = 0.45\n"),
