@@ -1,4 +1,4 @@
-"""Verification study of the coupled engine (too long for CI; its table goes into the README).
+"""Verification study of the coupled engine (too long for CI; its table goes into docs/verification.md).
 
     .venv/bin/python3 bench/verify_engine.py [--case DIR] [--base-mesh H] [--base-step DEG]
         [--base-max-step DEG] [--base-rtol R] [--max-cycles N] [--periodic-tolerance T]
@@ -56,7 +56,7 @@ def metrics(path: Path) -> dict[str, float]:
     (input_work - change of mechanical energy - dissipated_energy + drift_work) / dissipated_energy;
     ``energy_error_outputs``: the older measure, Simpson's rule on the outputs' input and dissipated
     powers, which samples the crank driver's torque too coarsely where the pin crosses its clearance
-    (README, Verification)."""
+    (docs/verification.md, the reference case's study)."""
     with xr.open_dataset(path) as ds:
         t = ds.time.values
         change = float(
